@@ -1,0 +1,1 @@
+"""kinder-bench."""

@@ -1,0 +1,1 @@
+"""KinDERGarden 3D."""
