@@ -385,7 +385,9 @@ def robot_description() -> RobotDescription:
         "bracelet_link",
         Joint("end_effector", "fixed"),
         (0.0, 0.0, -FLANGE_OFFSET),
-        (math.pi, 0.0, 0.0),
+        # Kinova's flange frame (roll pi), turned a quarter so the pads close across the wrist
+        # camera's view.
+        (math.pi, 0.0, _HALF_PI),
         Inertial(0.725, (0.0, 0.0, 0.05), _box_inertia(0.725, palm_half)),
         (
             Geom("coupling", "cylinder", (0.0375, 0.007), (0.0, 0.0, 0.007), rgba=GRIPPER_COLOR),

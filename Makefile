@@ -1,0 +1,55 @@
+# KinDER: the two commands are `make demo` (the main job) and `make test` (lint, types, tests).
+# Both work on a fresh machine with only python3, pip and make: uv is bootstrapped if missing.
+SHELL := /bin/bash
+.DEFAULT_GOAL := help
+PACKAGES := kinder-core kinder-garden2d kinder-garden3d kinder-gym kinder-bench
+UV := $(shell command -v uv 2>/dev/null || echo "python3 -m uv")
+export SDL_VIDEODRIVER ?= dummy
+export MUJOCO_GL ?= egl
+PYTEST_ARGS ?=
+
+.PHONY: help bootstrap sync demo test test-all lint typecheck fmt bench docs clean
+
+help:  ## List the targets.
+	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
+
+bootstrap:  ## Install uv if it is missing (pip, then pip --user).
+	@command -v uv >/dev/null 2>&1 || python3 -m uv --version >/dev/null 2>&1 || \
+	  python3 -m pip install --quiet uv || python3 -m pip install --quiet --user uv
+
+sync: bootstrap  ## Create .venv from uv.lock (all packages, dev tools; no torch/CUDA).
+	$(UV) sync --locked --all-packages
+
+demo: sync  ## The main job: a small benchmark run with a results table and a GIF.
+	$(UV) run --no-sync python tools/demo.py
+
+lint: sync  ## ruff lint and format check.
+	$(UV) run --no-sync ruff check .
+	$(UV) run --no-sync ruff format --check .
+
+typecheck: sync  ## mypy --strict on every package's src.
+	$(UV) run --no-sync mypy
+
+test: lint typecheck  ## Lint, type-check and every package's fast tests.
+	@set -e; for p in $(PACKAGES); do \
+	  echo "== $$p"; \
+	  (cd packages/$$p && $(UV) run --no-sync pytest -q $(PYTEST_ARGS) tests; rc=$$?; \
+	   if [ $$rc -ne 0 ] && [ $$rc -ne 5 ]; then exit $$rc; fi); \
+	done
+
+test-all: PYTEST_ARGS += -m "slow or not slow"
+test-all: test  ## `make test` plus the slow tests.
+
+fmt: sync  ## Format and auto-fix.
+	$(UV) run --no-sync ruff format .
+	$(UV) run --no-sync ruff check --fix .
+
+bench: sync  ## Speed benchmarks (benchmarks/README.md explains each).
+	$(UV) run --no-sync python benchmarks/core_bench.py
+	$(UV) run --no-sync python benchmarks/env_speed.py --all
+
+docs: sync  ## Regenerate docs/envs/ pages for every registered id.
+	$(UV) run --no-sync python tools/gen_env_docs.py --all
+
+clean:  ## Remove caches and run outputs.
+	rm -rf .mypy_cache .ruff_cache runs out **/.pytest_cache

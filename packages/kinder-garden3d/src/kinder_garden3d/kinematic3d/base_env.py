@@ -1,0 +1,507 @@
+"""Shared mechanics of the Kinematic3D families ("teleport and check", environments.md §4.1).
+
+One step of every family:
+
+1. The 10 motion deltas are added to the base pose and joints; the base is clipped to the world
+   bounds and the limited joints to their limits.
+2. The motion is swept in ``ceil(max|Δ| / max_collision_check_step)`` increments (only the
+   endpoint when the step is ``None``). At each increment the robot, the held object and nothing
+   else is moved and checked against the collision set (every collidable object except the held
+   object and, for a held container, the objects inside it). Any penetration deeper than
+   ``collision_tolerance`` reverts the whole motion.
+3. The gripper command runs: close → grasp when exactly one movable object touches the
+   end-effector marker; open → release when a surface supports the held object within
+   ``min_placement_dist``, otherwise keep holding.
+
+A held container (all half extents > 0.04) carries every movable object whose centre lies inside
+it. Reward −1 per step; ``terminated`` when the goal holds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, ObjectCentricStateSpace
+from kinder_core.state import FloatArray
+from kinder_garden3d.kinematic3d.geometry import (
+    Part,
+    compose,
+    cuboid_parts,
+    invert,
+    normalize_quat,
+    quat_to_matrix,
+    triangle_parts,
+)
+from kinder_garden3d.kinematic3d.object_types import (
+    ALL_TYPES,
+    CUBOID_TYPE,
+    POINT_TYPE,
+    ROBOT_TYPE,
+    SOLID,
+    TRIANGLE_TYPE,
+    robot_action_space,
+)
+from kinder_garden3d.kinematic3d.scene import BodySpec, PyBulletScene
+from kinder_garden3d.robot.description import FINGER_STATE_MAX, RETRACT, robot_description
+
+Array = NDArray[np.float64]
+Rgba = tuple[float, float, float, float]
+
+PURPLE: Rgba = (128 / 255, 0.0, 128 / 255, 1.0)
+RED: Rgba = (0.85, 0.1, 0.1, 1.0)
+BLUE: Rgba = (0.2, 0.35, 0.85, 1.0)
+YELLOW: Rgba = (0.95, 0.8, 0.15, 1.0)
+WOOD: Rgba = (0.76, 0.6, 0.42, 1.0)
+GREY: Rgba = (0.6, 0.6, 0.62, 1.0)
+FLOOR: Rgba = (0.86, 0.86, 0.84, 1.0)
+
+# Robot feature slices.
+_CONFIG = slice(0, 10)
+_FINGER = 10
+_GRASP = 11
+_TF = slice(12, 19)
+_NO_GRASP_TF = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+#: A held object with every half extent above this carries the objects inside it.
+CONTAINER_MIN_HALF_EXTENT = 0.04
+
+
+@dataclass(frozen=True)
+class Kinematic3DConfig:
+    """Settings shared by every Kinematic3D family (families extend it with their own fields).
+
+    Attributes:
+        max_action_mag: Bound of the 10 motion deltas (m or rad per step).
+        max_collision_check_step: Sweep resolution in configuration space; ``None`` checks only
+            the endpoint of each motion.
+        base_z: Height of the robot base frame in the world.
+        home_base_pose: Initial (x, y, yaw) of the base.
+        home_joints: Initial arm joints (the Kinova retract pose).
+        world_bounds: (x_min, x_max, y_min, y_max) for the base position.
+        min_placement_dist: Largest gap (m) under a held object for a release to be accepted.
+        collision_tolerance: Penetration depth (m) below which touching is not a collision.
+        finger_close_step: Finger-state increment while closing on an object.
+        max_reset_tries: Rejection-sampling budget of a reset before it raises.
+        image_width, image_height: Size of rendered frames.
+        camera_target, camera_distance, camera_yaw, camera_pitch: The overview orbit camera.
+    """
+
+    max_action_mag: float = 0.4
+    max_collision_check_step: float | None = None
+    base_z: float = 0.0
+    home_base_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    home_joints: tuple[float, ...] = RETRACT
+    world_bounds: tuple[float, float, float, float] = (-10.0, 10.0, -10.0, 10.0)
+    min_placement_dist: float = 0.005
+    collision_tolerance: float = 1e-4
+    finger_close_step: float = 0.01
+    max_reset_tries: int = 1000
+    image_width: int = 640
+    image_height: int = 360
+    camera_target: tuple[float, float, float] = (0.0, 0.0, 0.3)
+    camera_distance: float = 2.0
+    camera_yaw: float = 90.0
+    camera_pitch: float = -30.0
+
+    def __post_init__(self) -> None:
+        if not self.max_action_mag > 0:
+            raise ValueError(f"max_action_mag must be > 0, got {self.max_action_mag}")
+        step = self.max_collision_check_step
+        if step is not None and not step > 0:
+            raise ValueError(f"max_collision_check_step must be > 0 or None, got {step}")
+        if len(self.home_joints) != 7:
+            raise ValueError(f"home_joints needs 7 values, got {len(self.home_joints)}")
+        x0, x1, y0, y1 = self.world_bounds
+        if not (x0 < x1 and y0 < y1):
+            raise ValueError(f"world_bounds must be (x_min, x_max, y_min, y_max), got {(x0, x1)}")
+        if self.max_reset_tries < 1:
+            raise ValueError(f"max_reset_tries must be >= 1, got {self.max_reset_tries}")
+
+
+@dataclass(frozen=True)
+class ConstantBody:
+    """A static object that is not part of the observation (tables, floors)."""
+
+    spec: BodySpec
+    pos: tuple[float, float, float]
+    quat: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
+    surface: bool = True
+
+
+@dataclass
+class _SyncCache:
+    generation: int = -1
+    layout: Any = None
+    data: Array = field(default_factory=lambda: np.zeros(0))
+
+
+class ResetError(RuntimeError):
+    """A reset could not find a valid initial state within the try budget."""
+
+
+class Kinematic3DEnv(ObjectCentricEnv):
+    """Base class of the Kinematic3D families (see the module docstring for the mechanics).
+
+    Families implement ``_sample_initial_state``, ``goal_reached``, :meth:`box_objects`, and
+    declare their objects' roles through :meth:`movable_names`, :meth:`surface_names`,
+    :meth:`object_color` and :meth:`constant_bodies`.
+    """
+
+    def __init__(self, config: Kinematic3DConfig, render_mode: str | None = "rgb_array") -> None:
+        super().__init__(render_mode=render_mode)
+        self.config = config
+        self.robot = Object("robot", ROBOT_TYPE)
+        self.action_space = robot_action_space(config.max_action_mag)
+        self.observation_space = ObjectCentricStateSpace(ALL_TYPES)
+        desc = robot_description()
+        self._joint_low, self._joint_high = desc.arm_joint_limits
+        self._continuous = ~np.isfinite(self._joint_low)
+        self._scene = PyBulletScene(config.base_z)
+        self._sync_cache = _SyncCache()
+        self._constants: dict[str, ConstantBody] = dict(self.constant_bodies())
+
+    # -- family hooks ---------------------------------------------------------------------------
+    def constant_bodies(self) -> dict[str, ConstantBody]:
+        """Static bodies that are not observed (default: none)."""
+        return {}
+
+    def movable_names(self, state: ObjectCentricState) -> list[str]:
+        """Names of the objects the robot may grasp."""
+        return []
+
+    def surface_names(self, state: ObjectCentricState) -> list[str]:
+        """Names of the objects (observed or constant) a held object may be released onto."""
+        return [n for n, c in self._constants.items() if c.surface]
+
+    def object_color(self, obj: Object) -> Rgba:
+        """Display colour of an observed object."""
+        return GREY
+
+    def object_parts(self, state: ObjectCentricState, obj: Object) -> list[Part]:
+        """Convex parts of an observed object, from its features."""
+        f = state[obj]
+        if obj.type == CUBOID_TYPE:
+            return cuboid_parts(float(f[8]), f[9:12])
+        if obj.type == TRIANGLE_TYPE:
+            return triangle_parts(float(f[8]), float(f[9]), float(f[10]), float(f[11]))
+        raise ValueError(f"Object {obj!r} of type {obj.type.name!r} has no solid shape")
+
+    def extra_motion_collision(self, state: ObjectCentricState, held: Object | None) -> bool:
+        """An extra collision test run at every sweep increment (default: none)."""
+        return False
+
+    # -- bounds ---------------------------------------------------------------------------------
+    def feature_bounds(self) -> dict[str, tuple[float, float]]:
+        x0, x1, y0, y1 = self.config.world_bounds
+        bounds: dict[str, tuple[float, float]] = {
+            "Kinematic3DRobot.pos_base_x": (x0, x1),
+            "Kinematic3DRobot.pos_base_y": (y0, y1),
+            "Kinematic3DRobot.pos_base_rot": (-math.pi, math.pi),
+            "Kinematic3DRobot.finger_state": (0.0, FINGER_STATE_MAX),
+            "Kinematic3DRobot.grasp_active": (0.0, 1.0),
+            "grasp_active": (0.0, 1.0),
+            "object_type": (-1.0, 1.0),
+            "triangle_type": (0.0, 1.0),
+        }
+        for i in range(7):
+            lo, hi = self._joint_low[i], self._joint_high[i]
+            if not np.isfinite(lo):
+                lo, hi = -math.pi, math.pi
+            bounds[f"Kinematic3DRobot.joint_{i + 1}"] = (float(lo), float(hi))
+        for q in ("qx", "qy", "qz", "qw"):
+            bounds[f"pose_{q}"] = (-1.0, 1.0)
+            bounds[f"Kinematic3DRobot.grasp_tf_{q}"] = (-1.0, 1.0)
+        return bounds
+
+    # -- helpers for families -------------------------------------------------------------------
+    def robot_features(self) -> list[float]:
+        """The robot's initial 19 features (home pose, open gripper, nothing held)."""
+        return [
+            *self.config.home_base_pose,
+            *self.config.home_joints,
+            0.0,
+            0.0,
+            *_NO_GRASP_TF,
+        ]
+
+    @staticmethod
+    def cuboid_features(
+        pos: tuple[float, float, float] | Array,
+        half: tuple[float, float, float] | Array,
+        object_type: float = SOLID,
+        yaw: float = 0.0,
+    ) -> list[float]:
+        """12 cuboid features for an upright cuboid with the given yaw."""
+        return [
+            *(float(v) for v in pos),
+            0.0,
+            0.0,
+            math.sin(yaw / 2.0),
+            math.cos(yaw / 2.0),
+            0.0,
+            object_type,
+            *(float(v) for v in half),
+        ]
+
+    def held_object(self, state: ObjectCentricState) -> Object | None:
+        """The object currently grasped, if any."""
+        if state.get(self.robot, "grasp_active") < 0.5:
+            return None
+        for obj in state:
+            if obj.type in (CUBOID_TYPE, TRIANGLE_TYPE) and state[obj][7] > 0.5:
+                return obj
+        return None
+
+    def contents(self, state: ObjectCentricState, container: Object | None) -> list[Object]:
+        """Movable objects whose centre lies inside a held container."""
+        if container is None or container.type != CUBOID_TYPE:
+            return []
+        f = state[container]
+        half = f[9:12]
+        if not np.all(half > CONTAINER_MIN_HALF_EXTENT):
+            return []
+        rot = quat_to_matrix(f[3:7])
+        inside = []
+        for name in self.movable_names(state):
+            obj = state.get_object_from_name(name)
+            if obj == container:
+                continue
+            local = rot.T @ (state[obj][:3] - f[:3])
+            if np.all(np.abs(local) <= half):
+                inside.append(obj)
+        return inside
+
+    def ee_pose(self, state: ObjectCentricState) -> tuple[Array, Array]:
+        """World pose (position, quaternion xyzw) of the end effector in ``state``."""
+        self._sync(state)
+        return self._scene.ee_pose()
+
+    # -- scene synchronisation ------------------------------------------------------------------
+    def _sync(self, state: ObjectCentricState, force: bool = False) -> None:
+        """Load ``state`` into the pybullet scene (skipped when it already holds it)."""
+        scene, cache = self._scene, self._sync_cache
+        scene_client = scene.client  # connects if needed
+        del scene_client
+        if (
+            not force
+            and cache.generation == scene.generation
+            and cache.layout is state.layout
+            and np.array_equal(cache.data, state.data)
+        ):
+            return
+        if cache.generation != scene.generation:
+            for name, const in self._constants.items():
+                scene.ensure_body(name, const.spec)
+                scene.set_pose(name, list(const.pos), list(const.quat))
+        keep = set(self._constants)
+        for obj in state:
+            f = state[obj]
+            if obj == self.robot:
+                scene.set_robot(f[_CONFIG], float(f[_FINGER]))
+                continue
+            keep.add(obj.name)
+            if obj.type == POINT_TYPE:
+                spec = BodySpec((), self.object_color(obj), collide=False, sphere_radius=0.05)
+                scene.ensure_body(obj.name, spec)
+                scene.set_pose(obj.name, f[:3], [0.0, 0.0, 0.0, 1.0])
+            else:
+                spec = BodySpec(tuple(self.object_parts(state, obj)), self.object_color(obj))
+                scene.ensure_body(obj.name, spec)
+                scene.set_pose(obj.name, f[:3], f[3:7])
+        scene.remove_except(keep)
+        cache.generation = scene.generation
+        cache.layout = state.layout
+        cache.data = state.data.copy()
+
+    def _collidable(self, state: ObjectCentricState, exclude: set[str]) -> list[int]:
+        bodies = [
+            self._scene.body(n)
+            for n, c in self._constants.items()
+            if c.spec.collide and n not in exclude
+        ]
+        bodies += [
+            self._scene.body(o.name)
+            for o in state
+            if o.type in (CUBOID_TYPE, TRIANGLE_TYPE) and o.name not in exclude
+        ]
+        return bodies
+
+    # -- the transition -------------------------------------------------------------------------
+    def _transition(self, state: ObjectCentricState, action: FloatArray) -> ObjectCentricState:
+        cfg = self.config
+        self._sync(state)
+        robot = state[self.robot]
+        q0 = robot[_CONFIG].copy()
+        q1 = q0 + action[:10]
+        x0, x1, y0, y1 = cfg.world_bounds
+        q1[0] = min(max(q1[0], x0), x1)
+        q1[1] = min(max(q1[1], y0), y1)
+        q1[3:10] = np.clip(q1[3:10], self._joint_low, self._joint_high)
+
+        held = self.held_object(state)
+        carried = self.contents(state, held)
+        exclude = {o.name for o in carried}
+        if held is not None:
+            exclude.add(held.name)
+        obstacles = self._collidable(state, exclude)
+        grasp_tf = (robot[_TF][:3].copy(), robot[_TF][3:].copy())
+
+        if np.any(q1 != q0) and not self._sweep_collides(state, q0, q1, held, grasp_tf, obstacles):
+            self._commit_motion(state, q1, held, carried, grasp_tf)
+        self._sync(state, force=True)
+
+        command = float(action[10])
+        if command < -0.5 and held is None:
+            self._try_grasp(state)
+        elif command > 0.5:
+            if held is not None:
+                self._try_release(state, held, carried)
+            elif robot[_FINGER] != 0.0:
+                robot[_FINGER] = 0.0
+        self._sync(state, force=True)
+        return state
+
+    def _held_world_pose(self, grasp_tf: tuple[Array, Array]) -> tuple[Array, Array]:
+        ee_p, ee_q = self._scene.ee_pose()
+        return compose(ee_p, ee_q, grasp_tf[0], grasp_tf[1])
+
+    def _sweep_collides(
+        self,
+        state: ObjectCentricState,
+        q0: Array,
+        q1: Array,
+        held: Object | None,
+        grasp_tf: tuple[Array, Array],
+        obstacles: list[int],
+    ) -> bool:
+        step = self.config.max_collision_check_step
+        n = 1 if step is None else max(1, math.ceil(float(np.max(np.abs(q1 - q0))) / step))
+        scene, tol = self._scene, self.config.collision_tolerance
+        held_body = scene.body(held.name) if held is not None else -1
+        # The endpoint first: a colliding endpoint (the common case) ends the check at once.
+        for i in (n, *range(1, n)):
+            scene.set_robot(q0 + (q1 - q0) * (i / n))
+            if held is not None:
+                pos, quat = self._held_world_pose(grasp_tf)
+                scene.set_pose(held.name, pos, quat)
+            if scene.collides(scene.robot, obstacles, tol):
+                return True
+            if held is not None and (
+                scene.collides(held_body, obstacles, tol)
+                or self.extra_motion_collision(state, held)
+            ):
+                return True
+        return False
+
+    def _commit_motion(
+        self,
+        state: ObjectCentricState,
+        q1: Array,
+        held: Object | None,
+        carried: list[Object],
+        grasp_tf: tuple[Array, Array],
+    ) -> None:
+        robot = state[self.robot]
+        q = q1.copy()
+        q[2] = _wrap(q[2])
+        q[3:10][self._continuous] = [_wrap(v) for v in q[3:10][self._continuous]]
+        robot[_CONFIG] = q
+        if held is None:
+            return
+        self._scene.set_robot(q1)
+        old_p, old_q = state[held][:3].copy(), state[held][3:7].copy()
+        new_p, new_q = self._held_world_pose(grasp_tf)
+        new_q = normalize_quat(new_q)
+        state[held][:3], state[held][3:7] = new_p, new_q
+        delta_p, delta_q = compose(new_p, new_q, *invert(old_p, old_q))
+        for obj in carried:
+            p, qq = compose(delta_p, delta_q, state[obj][:3], state[obj][3:7])
+            state[obj][:3], state[obj][3:7] = p, normalize_quat(qq)
+
+    def _try_grasp(self, state: ObjectCentricState) -> None:
+        scene, cfg = self._scene, self.config
+        robot = state[self.robot]
+        scene.place_marker()
+        movable = [state.get_object_from_name(n) for n in self.movable_names(state)]
+        touching = scene.marker_touching([scene.body(o.name) for o in movable])
+        if len(touching) != 1:
+            return
+        obj = next(o for o in movable if scene.body(o.name) == touching[0])
+        body = touching[0]
+        start = float(robot[_FINGER])
+        s = start
+        while s < FINGER_STATE_MAX:
+            s = min(s + cfg.finger_close_step, FINGER_STATE_MAX)
+            scene.set_robot(robot[_CONFIG], s)
+            if scene.fingers_touch(body):
+                break
+        others = self._collidable(state, {obj.name})
+        if scene.fingers_collide(others, cfg.collision_tolerance):
+            scene.set_robot(robot[_CONFIG], start)
+            return
+        ee_p, ee_q = scene.ee_pose()
+        tf_p, tf_q = compose(*invert(ee_p, ee_q), state[obj][:3], state[obj][3:7])
+        robot[_FINGER] = s
+        robot[_GRASP] = 1.0
+        robot[_TF] = [*tf_p, *normalize_quat(tf_q)]
+        state[obj][7] = 1.0
+
+    def _try_release(self, state: ObjectCentricState, held: Object, carried: list[Object]) -> None:
+        scene, gap = self._scene, self.config.min_placement_dist
+        body = scene.body(held.name)
+        skip = {held.name, *(o.name for o in carried)}
+        surfaces = [n for n in self.surface_names(state) if n not in skip]
+        if not any(scene.support_gap(body, scene.body(n), gap) < gap for n in surfaces):
+            return
+        robot = state[self.robot]
+        robot[_FINGER] = 0.0
+        robot[_GRASP] = 0.0
+        robot[_TF] = _NO_GRASP_TF
+        state[held][7] = 0.0
+
+    # -- rendering ------------------------------------------------------------------------------
+    def _render_state(self, state: ObjectCentricState) -> NDArray[np.uint8]:
+        cfg = self.config
+        self._sync(state)
+        return self._scene.capture_orbit(
+            cfg.camera_target,
+            cfg.camera_distance,
+            cfg.camera_yaw,
+            cfg.camera_pitch,
+            cfg.image_width,
+            cfg.image_height,
+        )
+
+    def render_cameras(self, state: ObjectCentricState | None = None) -> dict[str, NDArray[np.uint8]]:
+        """Images from the ``overview``, ``base`` and ``wrist`` cameras (live state by default)."""
+        if state is None:
+            state = self.get_state()
+        cfg = self.config
+        images = {"overview": self._render_state(state)}
+        for name in ("base", "wrist"):
+            eye, target, up, fovy = self._scene.robot_camera(name)
+            images[name] = self._scene.capture(
+                eye, target, up, fovy, cfg.image_width, cfg.image_height
+            )
+        return images
+
+    def close(self) -> None:
+        """Release the pybullet client."""
+        self._scene.close()
+        super().close()
+
+    # -- sampling helpers -----------------------------------------------------------------------
+    def _reset_error(self, what: str) -> ResetError:
+        return ResetError(
+            f"{type(self).__name__}: could not sample {what} in {self.config.max_reset_tries} "
+            f"tries; relax the configuration (fewer objects or larger regions)"
+        )
+
+
+def _wrap(angle: float) -> float:
+    """Wrap an angle into [-pi, pi)."""
+    return float((angle + math.pi) % (2.0 * math.pi) - math.pi)

@@ -1,0 +1,398 @@
+"""The pybullet backend of the Kinematic3D families: one private DIRECT client per scene.
+
+A :class:`PyBulletScene` holds the robot (loaded from the generated URDF), an invisible grasp
+marker at the end effector, and one body per named object. Nothing is ever simulated: bodies are
+teleported (``reset*``) and queried with ``getClosestPoints``, which is exact for boxes and
+capsules and stateless, so results depend only on the poses that were set. Triangular prisms are
+convex hulls, which pybullet inflates by a 1 mm margin; their hull vertices are shrunk by that
+margin so distances stay exact on the faces.
+
+No GUI, no global state: every call names this scene's client. ``close()`` disconnects; the scene
+reconnects lazily if it is used again.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pybullet as pb
+from numpy.typing import NDArray
+
+from kinder_garden3d.kinematic3d.geometry import Part, quat_to_matrix
+from kinder_garden3d.robot.description import (
+    PINCH_OFFSET,
+    finger_joint_positions,
+    robot_description,
+    rpy_to_matrix,
+)
+from kinder_garden3d.robot.urdf import urdf_path
+
+Array = NDArray[np.float64]
+Rgba = tuple[float, float, float, float]
+
+#: Half extents of the invisible grasp-detection box at the end effector (z = approach axis).
+MARKER_HALF = (0.01, 0.01, 0.035)
+_HULL_MARGIN = 0.001
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """What a scene body looks like: convex parts, colour, and whether it collides."""
+
+    parts: tuple[Part, ...]
+    rgba: Rgba
+    collide: bool = True
+    sphere_radius: float = 0.0  # > 0: a visual-only sphere instead of parts
+
+
+def _shrunk_prism(part: Part) -> tuple[list[list[float]], float]:
+    tri = np.array(part.params[:6]).reshape(3, 2)
+    hd = part.params[6]
+    lengths = np.linalg.norm(np.roll(tri, -1, axis=0) - tri, axis=1)
+    # Incentre: vertices weighted by the lengths of the opposite sides.
+    opposite = np.roll(lengths, -1)
+    centre = (tri * opposite[:, None]).sum(axis=0) / opposite.sum()
+    area = 0.5 * abs(
+        (tri[1, 0] - tri[0, 0]) * (tri[2, 1] - tri[0, 1])
+        - (tri[2, 0] - tri[0, 0]) * (tri[1, 1] - tri[0, 1])
+    )
+    inradius = 2.0 * area / lengths.sum()
+    scale = (inradius - _HULL_MARGIN) / inradius
+    shrunk = centre + (tri - centre) * scale
+    hd_in = hd - _HULL_MARGIN
+    verts = [[float(x), float(y), z] for z in (-hd_in, hd_in) for x, y in shrunk]
+    return verts, hd
+
+
+def _prism_mesh(part: Part) -> tuple[list[list[float]], list[int]]:
+    tri = np.array(part.params[:6]).reshape(3, 2)
+    hd = part.params[6]
+    verts = [[float(x), float(y), z] for z in (-hd, hd) for x, y in tri]
+    # Counter-clockwise triangles seen from outside (bottom 0-2, top 3-5).
+    ccw = (tri[1, 0] - tri[0, 0]) * (tri[2, 1] - tri[0, 1]) - (tri[2, 0] - tri[0, 0]) * (
+        tri[1, 1] - tri[0, 1]
+    ) > 0
+    a, b = (1, 2) if ccw else (2, 1)
+    idx = [0, b, a, 3, 3 + a, 3 + b]
+    for i in range(3):
+        j = (i + 1) % 3 if ccw else (i + 2) % 3
+        idx += [i, j, 3 + j, i, 3 + j, 3 + i]
+    return verts, idx
+
+
+class PyBulletScene:
+    """A private pybullet DIRECT client holding the robot and the objects of one env."""
+
+    def __init__(self, base_z: float = 0.0) -> None:
+        self.base_z = base_z
+        self._client: int | None = None
+        self._bodies: dict[str, tuple[BodySpec, int]] = {}
+        self._desc = robot_description()
+        self.robot = -1
+        self.marker = -1
+        self._arm_idx: list[int] = []
+        self._finger_idx: list[int] = []
+        self._finger_links: list[int] = []
+        self._link_idx: dict[str, int] = {}
+        #: Incremented on every (re)connection, so callers can tell a fresh client apart.
+        self.generation = 0
+
+    # -- connection -----------------------------------------------------------------------------
+    @property
+    def client(self) -> int:
+        """The pybullet client id (connecting on first use)."""
+        if self._client is None:
+            self._connect()
+        assert self._client is not None
+        return self._client
+
+    def _connect(self) -> None:
+        cid = pb.connect(pb.DIRECT)
+        if cid < 0:
+            raise RuntimeError("pybullet could not open a DIRECT client")
+        self._client = cid
+        self.generation += 1
+        self._bodies = {}
+        self.robot = pb.loadURDF(
+            str(urdf_path()),
+            basePosition=[0.0, 0.0, self.base_z],
+            useFixedBase=True,
+            physicsClientId=cid,
+        )
+        for i in range(pb.getNumJoints(self.robot, physicsClientId=cid)):
+            info = pb.getJointInfo(self.robot, i, physicsClientId=cid)
+            self._link_idx[info[12].decode()] = i
+            joint_name = info[1].decode()
+            if joint_name in self._desc.arm_joint_names:
+                self._arm_idx.append(i)
+            if joint_name in self._desc.finger_joint_names:
+                self._finger_idx.append(i)
+        self._finger_links = list(self._finger_idx)
+        marker_shape = pb.createCollisionShape(
+            pb.GEOM_BOX, halfExtents=list(MARKER_HALF), physicsClientId=cid
+        )
+        self.marker = pb.createMultiBody(0.0, marker_shape, -1, physicsClientId=cid)
+
+    def close(self) -> None:
+        """Disconnect the client (idempotent)."""
+        if self._client is not None:
+            try:
+                pb.disconnect(physicsClientId=self._client)
+            except pb.error:
+                pass
+            self._client = None
+            self._bodies = {}
+            self._arm_idx, self._finger_idx, self._finger_links = [], [], []
+            self._link_idx = {}
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown: pybullet may already be gone
+            pass
+
+    # -- bodies ---------------------------------------------------------------------------------
+    def _create_body(self, spec: BodySpec) -> int:
+        cid = self.client
+        if spec.sphere_radius > 0:
+            vis = pb.createVisualShape(
+                pb.GEOM_SPHERE, radius=spec.sphere_radius, rgbaColor=spec.rgba, physicsClientId=cid
+            )
+            return int(pb.createMultiBody(0.0, -1, vis, physicsClientId=cid))
+        cols, viss = [], []
+        for part in spec.parts:
+            if part.kind == "box":
+                col = (
+                    pb.createCollisionShape(
+                        pb.GEOM_BOX, halfExtents=list(part.params), physicsClientId=cid
+                    )
+                    if spec.collide
+                    else -1
+                )
+                vis = pb.createVisualShape(
+                    pb.GEOM_BOX, halfExtents=list(part.params), rgbaColor=spec.rgba,
+                    physicsClientId=cid,
+                )  # fmt: skip
+            else:
+                hull, _ = _shrunk_prism(part)
+                col = (
+                    pb.createCollisionShape(pb.GEOM_MESH, vertices=hull, physicsClientId=cid)
+                    if spec.collide
+                    else -1
+                )
+                verts, idx = _prism_mesh(part)
+                vis = pb.createVisualShape(
+                    pb.GEOM_MESH, vertices=verts, indices=idx, rgbaColor=spec.rgba,
+                    physicsClientId=cid,
+                )  # fmt: skip
+            cols.append(col)
+            viss.append(vis)
+        first = spec.parts[0]
+        n = len(spec.parts) - 1
+        body = pb.createMultiBody(
+            baseMass=0.0,
+            baseCollisionShapeIndex=cols[0],
+            baseVisualShapeIndex=viss[0],
+            baseInertialFramePosition=[0.0, 0.0, 0.0],
+            linkMasses=[0.0] * n,
+            linkCollisionShapeIndices=cols[1:],
+            linkVisualShapeIndices=viss[1:],
+            linkPositions=[list(p.pos) for p in spec.parts[1:]],
+            linkOrientations=[[0.0, 0.0, 0.0, 1.0]] * n,
+            linkInertialFramePositions=[[0.0, 0.0, 0.0]] * n,
+            linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * n,
+            linkParentIndices=[0] * n,
+            linkJointTypes=[pb.JOINT_FIXED] * n,
+            linkJointAxis=[[0.0, 0.0, 1.0]] * n,
+            physicsClientId=cid,
+        )
+        if first.pos != (0.0, 0.0, 0.0):
+            # The base part is offset: rebuild with an offset base frame is not supported by
+            # createMultiBody, so offsets of the first part must be zero.
+            raise ValueError("The first part of a body must sit at the body origin")
+        return int(body)
+
+    def ensure_body(self, name: str, spec: BodySpec) -> int:
+        """The body for ``name``, (re)created if its spec changed."""
+        current = self._bodies.get(name)
+        if current is not None and current[0] == spec:
+            return current[1]
+        if current is not None:
+            pb.removeBody(current[1], physicsClientId=self.client)
+        body = self._create_body(spec)
+        self._bodies[name] = (spec, body)
+        return body
+
+    def remove_except(self, keep: set[str]) -> None:
+        """Remove the bodies whose names are not in ``keep``."""
+        for name in [n for n in self._bodies if n not in keep]:
+            pb.removeBody(self._bodies.pop(name)[1], physicsClientId=self.client)
+
+    def body(self, name: str) -> int:
+        """The body id of a named object."""
+        return self._bodies[name][1]
+
+    def set_pose(self, name: str, pos: Array | list[float], quat: Array | list[float]) -> None:
+        """Teleport a named object."""
+        pb.resetBasePositionAndOrientation(
+            self._bodies[name][1], list(pos), list(quat), physicsClientId=self.client
+        )
+
+    # -- robot ----------------------------------------------------------------------------------
+    def set_robot(self, config: Array, finger_state: float | None = None) -> None:
+        """Set base (x, y, yaw) and the 7 joints from a 10-vector; optionally the fingers."""
+        cid = self.client
+        yaw = float(config[2])
+        pb.resetBasePositionAndOrientation(
+            self.robot,
+            [float(config[0]), float(config[1]), self.base_z],
+            [0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)],
+            physicsClientId=cid,
+        )
+        for idx, q in zip(self._arm_idx, config[3:10], strict=True):
+            pb.resetJointState(self.robot, idx, float(q), physicsClientId=cid)
+        if finger_state is not None:
+            for idx, q in zip(self._finger_idx, finger_joint_positions(finger_state), strict=True):
+                pb.resetJointState(self.robot, idx, q, physicsClientId=cid)
+
+    def ee_pose(self) -> tuple[Array, Array]:
+        """World pose of the end effector (the pinch point; z = approach, y = closing)."""
+        state = pb.getLinkState(
+            self.robot,
+            self._link_idx["gripper_base_link"],
+            computeForwardKinematics=True,
+            physicsClientId=self.client,
+        )
+        pos, quat = np.array(state[4]), np.array(state[5])
+        return pos + quat_to_matrix(quat)[:, 2] * PINCH_OFFSET, quat
+
+    def place_marker(self) -> None:
+        """Move the grasp marker to the end effector."""
+        pos, quat = self.ee_pose()
+        pb.resetBasePositionAndOrientation(
+            self.marker, pos.tolist(), quat.tolist(), physicsClientId=self.client
+        )
+
+    def link_pose(self, link: str) -> tuple[Array, Array]:
+        """World pose of a robot link."""
+        if link == "base_link":
+            pos, quat = pb.getBasePositionAndOrientation(self.robot, physicsClientId=self.client)
+            return np.array(pos), np.array(quat)
+        state = pb.getLinkState(
+            self.robot,
+            self._link_idx[link],
+            computeForwardKinematics=True,
+            physicsClientId=self.client,
+        )
+        return np.array(state[4]), np.array(state[5])
+
+    # -- queries --------------------------------------------------------------------------------
+    def min_distance(self, body_a: int, body_b: int, max_distance: float = 0.0) -> float:
+        """Smallest signed distance between two bodies, or +inf if above ``max_distance``."""
+        pts = pb.getClosestPoints(body_a, body_b, max_distance, physicsClientId=self.client)
+        if not pts:
+            return math.inf
+        return float(min(p[8] for p in pts))
+
+    def collides(self, body_a: int, bodies: list[int], tolerance: float) -> bool:
+        """Whether ``body_a`` penetrates any of ``bodies`` deeper than ``tolerance``."""
+        cid = self.client
+        for b in bodies:
+            pts = pb.getClosestPoints(body_a, b, -tolerance, physicsClientId=cid)
+            if pts:
+                return True
+        return False
+
+    def marker_touching(self, bodies: list[int]) -> list[int]:
+        """The bodies that touch the grasp marker."""
+        cid = self.client
+        return [
+            b for b in bodies if pb.getClosestPoints(self.marker, b, 0.0, physicsClientId=cid)
+        ]
+
+    def fingers_touch(self, body: int) -> bool:
+        """Whether either finger link touches ``body``."""
+        cid = self.client
+        return any(
+            pb.getClosestPoints(self.robot, body, 0.0, linkIndexA=link, physicsClientId=cid)
+            for link in self._finger_links
+        )
+
+    def fingers_collide(self, bodies: list[int], tolerance: float) -> bool:
+        """Whether a finger link penetrates any of ``bodies`` deeper than ``tolerance``."""
+        cid = self.client
+        return any(
+            pb.getClosestPoints(self.robot, b, -tolerance, linkIndexA=link, physicsClientId=cid)
+            for link in self._finger_links
+            for b in bodies
+        )
+
+    def support_gap(self, body: int, surface: int, max_gap: float) -> float:
+        """The vertical gap from ``body`` down to ``surface`` (+inf if not below within range).
+
+        A contact counts as support when the surface lies beneath the body (contact normal
+        pointing mostly up from the surface to the body).
+        """
+        pts = pb.getClosestPoints(body, surface, max_gap, physicsClientId=self.client)
+        gaps = [p[8] for p in pts if p[7][2] > 0.7]  # normal on B, pointing from B to A
+        return float(min(gaps)) if gaps else math.inf
+
+    # -- cameras --------------------------------------------------------------------------------
+    def robot_camera(self, name: str) -> tuple[Array, Array, Array, float]:
+        """(eye, target, up, fovy) of a robot-mounted camera."""
+        cam = self._desc.camera(name)
+        pos, quat = self.link_pose(cam.link)
+        rot = quat_to_matrix(quat) @ rpy_to_matrix(cam.rpy)
+        eye = pos + quat_to_matrix(quat) @ np.array(cam.pos)
+        return eye, eye - rot[:, 2], rot[:, 1], cam.fovy
+
+    def capture_orbit(
+        self,
+        target: tuple[float, float, float],
+        distance: float,
+        yaw: float,
+        pitch: float,
+        width: int,
+        height: int,
+        fovy: float = 60.0,
+    ) -> NDArray[np.uint8]:
+        """Render from an orbit camera (pybullet's yaw/pitch convention, degrees)."""
+        view = pb.computeViewMatrixFromYawPitchRoll(
+            list(target), distance, yaw, pitch, 0.0, 2, physicsClientId=self.client
+        )
+        return self._render(view, fovy, width, height)
+
+    def capture(
+        self,
+        eye: Array,
+        target: Array,
+        up: Array,
+        fovy: float,
+        width: int,
+        height: int,
+    ) -> NDArray[np.uint8]:
+        """Render an RGB image with pybullet's CPU (TinyRenderer) rasteriser."""
+        view = pb.computeViewMatrix(
+            eye.tolist(), target.tolist(), up.tolist(), physicsClientId=self.client
+        )
+        return self._render(view, fovy, width, height)
+
+    def _render(self, view: Any, fovy: float, width: int, height: int) -> NDArray[np.uint8]:
+        cid = self.client
+        proj = pb.computeProjectionMatrixFOV(fovy, width / height, 0.01, 20.0, physicsClientId=cid)
+        out: Any = pb.getCameraImage(
+            width,
+            height,
+            view,
+            proj,
+            renderer=pb.ER_TINY_RENDERER,
+            flags=pb.ER_NO_SEGMENTATION_MASK,
+            shadow=0,
+            lightDirection=[0.4, -0.3, 1.0],
+            physicsClientId=cid,
+        )
+        rgba = np.asarray(out[2], dtype=np.uint8).reshape(height, width, 4)
+        return np.ascontiguousarray(rgba[:, :, :3])

@@ -1,0 +1,164 @@
+"""Table3D: lift a cube off a table (environments.md §4.4)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinder_core import Object, ObjectCentricState
+from kinder_garden3d.kinematic3d.base_env import (
+    FLOOR,
+    PURPLE,
+    WOOD,
+    ConstantBody,
+    Kinematic3DConfig,
+    Kinematic3DEnv,
+    Rgba,
+)
+from kinder_garden3d.kinematic3d.geometry import Part, rects_overlap_2d
+from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE
+from kinder_garden3d.kinematic3d.scene import BodySpec
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Table3DConfig(Kinematic3DConfig):
+    """Table3D settings (see :class:`Kinematic3DConfig` for the shared ones).
+
+    Attributes:
+        table_pos, table_half: The (observed) table's centre and half extents.
+        cube_half: Half edge of the cubes.
+        lift_height: How far above the table top a held cube's centre must be.
+        placement_margin: Clearance kept between sampled cubes.
+    """
+
+    world_bounds: tuple[float, float, float, float] = (-1.0, 1.0, -1.0, 1.0)
+    table_pos: Vec3 = (0.6, 0.0, 0.2)
+    table_half: Vec3 = (0.2, 0.4, 0.2)
+    cube_half: float = 0.025
+    lift_height: float = 0.1
+    placement_margin: float = 0.01
+    camera_target: tuple[float, float, float] = (0.4, 0.0, 0.3)
+    camera_distance: float = 1.8
+    camera_yaw: float = 90.0
+    camera_pitch: float = -35.0
+
+
+def floor_body() -> ConstantBody:
+    """The floor: a thin box whose top face is z = 0 (a surface and a collision object)."""
+    return ConstantBody(BodySpec((Part("box", (3.0, 3.0, 0.01)),), FLOOR), (0.0, 0.0, -0.01))
+
+
+class Table3DEnv(Kinematic3DEnv):
+    """Pick up any cube from a table and hold it above the table.
+
+    ## Description
+    A TidyBot++-style mobile manipulator stands on the floor next to a wooden table with
+    `num_cubes` purple 5 cm cubes on it. The task is to grasp a cube and lift it more than 0.1 m
+    above the table top. The table is an observed (but immovable) object; the floor is a
+    constant collision object. Motions are checked for collisions at their endpoint and reverted
+    on collision; a close command grasps when exactly one cube touches the end-effector marker.
+
+    ## Observation Space
+    A (31 + 12N)-D float64 vector: `robot` (19), `table` (12), then `cube0` … (12 each, sorted
+    by name). Features: `Kinematic3DRobot` (19): `pos_base_x, pos_base_y, pos_base_rot,
+    joint_1..joint_7, finger_state, grasp_active, grasp_tf_x … grasp_tf_qw`;
+    `Kinematic3DCuboid` (12): `pose_x, pose_y, pose_z, pose_qx, pose_qy, pose_qz, pose_qw,
+    grasp_active, object_type, half_extent_x, half_extent_y, half_extent_z`. Quaternions are
+    ordered (x, y, z, w).
+
+    ## Action Space
+    An 11-D float32 Box: Δbase x, y, yaw and Δjoint 1..7, each bounded by ±0.4, and a gripper
+    command in [−1, 1] (< −0.5 close, > 0.5 open). The base stays within ±1 m.
+
+    ## Reward
+    −1 on every step.
+
+    ## Starting State
+    Robot at the origin, arm retracted, gripper open. Table centre (0.6, 0, 0.2), half extents
+    (0.2, 0.4, 0.2), so its top is at z = 0.4. Cubes (half edge 0.025) are placed uniformly on
+    the table top, axis-aligned and at least 1 cm apart.
+
+    ## Episode End
+    Terminates when some cube is held with its centre more than 0.1 m above the table top. The
+    registered ids truncate after 300 steps.
+
+    ## Arguments
+    `num_cubes` (default 2), `config` (a `Table3DConfig`), `render_mode`.
+
+    ## Version History
+    * v0: first release in kinder-garden3d.
+
+    ## Deviations
+    The upstream docs say −0.01 per step; the upstream code (and this env) gives −1. The floor
+    is a collision object here, so the arm cannot pass through it. Upstream registers no step
+    limit; these ids use 300.
+    """
+
+    def __init__(
+        self,
+        num_cubes: int = 2,
+        config: Table3DConfig | None = None,
+        render_mode: str | None = "rgb_array",
+    ) -> None:
+        if not isinstance(num_cubes, int) or num_cubes < 1:
+            raise ValueError(f"num_cubes must be an int >= 1, got {num_cubes!r}")
+        self.num_cubes = num_cubes
+        self.table = Object("table", CUBOID_TYPE)
+        self.cubes = [Object(f"cube{i}", CUBOID_TYPE) for i in range(num_cubes)]
+        super().__init__(config or Table3DConfig(), render_mode=render_mode)
+        self.config: Table3DConfig
+
+    def constant_bodies(self) -> dict[str, ConstantBody]:
+        return {"floor": floor_body()}
+
+    def movable_names(self, state: ObjectCentricState) -> list[str]:
+        return [c.name for c in self.cubes]
+
+    def surface_names(self, state: ObjectCentricState) -> list[str]:
+        return ["floor", self.table.name]
+
+    def object_color(self, obj: Object) -> Rgba:
+        return WOOD if obj == self.table else PURPLE
+
+    def box_objects(self) -> list[Object]:
+        return [self.robot, self.table, *sorted(self.cubes)]
+
+    def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
+        cfg = self.config
+        tx, ty, tz = cfg.table_pos
+        thx, thy, thz = cfg.table_half
+        h = cfg.cube_half
+        top = tz + thz
+        for _ in range(cfg.max_reset_tries):
+            centres: list[tuple[float, float]] = []
+            for _cube in self.cubes:
+                xy = (
+                    float(rng.uniform(tx - thx + h, tx + thx - h)),
+                    float(rng.uniform(ty - thy + h, ty + thy - h)),
+                )
+                if any(
+                    rects_overlap_2d(xy, (h, h), c, (h, h), cfg.placement_margin) for c in centres
+                ):
+                    break
+                centres.append(xy)
+            if len(centres) != len(self.cubes):
+                continue
+            features = {
+                self.robot: self.robot_features(),
+                self.table: self.cuboid_features(cfg.table_pos, cfg.table_half),
+            }
+            for cube, (x, y) in zip(self.cubes, centres, strict=True):
+                features[cube] = self.cuboid_features((x, y, top + h), (h, h, h))
+            return ObjectCentricState.from_features(features)
+        raise self._reset_error("collision-free cube positions")
+
+    def goal_reached(self, state: ObjectCentricState) -> bool:
+        held = self.held_object(state)
+        if held is None or held not in self.cubes:
+            return False
+        table = state[self.table]
+        top = table[2] + table[11]
+        return bool(state[held][2] - top > self.config.lift_height)

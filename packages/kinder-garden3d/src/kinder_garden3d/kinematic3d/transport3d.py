@@ -1,0 +1,189 @@
+"""Transport3D: move cubes and a box from the floor onto a table (environments.md §4.5)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinder_core import Object, ObjectCentricState
+from kinder_garden3d.kinematic3d.base_env import (
+    BLUE,
+    WOOD,
+    YELLOW,
+    ConstantBody,
+    Kinematic3DConfig,
+    Kinematic3DEnv,
+    Rgba,
+)
+from kinder_garden3d.kinematic3d.object_types import CONTAINER, CUBOID_TYPE
+from kinder_garden3d.kinematic3d.table3d import floor_body
+from kinder_garden3d.kinematic3d.geometry import rects_overlap_2d
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Transport3DConfig(Kinematic3DConfig):
+    """Transport3D settings (see :class:`Kinematic3DConfig` for the shared ones).
+
+    Attributes:
+        table_pos, table_half: The (observed) table's centre and half extents.
+        box_half: Outer half extents of the open-top box (walls 0.01 m).
+        cube_half: Half edge of the cubes.
+        floor_region: (x_min, x_max, y_min, y_max) where the box and cubes start.
+        robot_clearance: Half size of the square around the base kept free of objects.
+        placement_margin: Clearance kept between sampled objects and from the table.
+        goal_min_z: Smallest centre height of every cube and box at the goal.
+        goal_ee_clearance: Smallest end-effector distance to every cube and box at the goal.
+        goal_max_finger: Largest finger state (open gripper) at the goal.
+    """
+
+    max_action_mag: float = 0.2
+    world_bounds: tuple[float, float, float, float] = (-1.0, 1.0, -1.0, 1.0)
+    table_pos: Vec3 = (0.6, 0.0, 0.2)
+    table_half: Vec3 = (0.2, 0.4, 0.2)
+    box_half: Vec3 = (0.1, 0.15, 0.1)
+    cube_half: float = 0.025
+    floor_region: tuple[float, float, float, float] = (-0.8, 0.8, -0.8, 0.8)
+    robot_clearance: float = 0.3
+    placement_margin: float = 0.05
+    goal_min_z: float = 0.3
+    goal_ee_clearance: float = 0.2
+    goal_max_finger: float = 0.01
+    camera_target: tuple[float, float, float] = (0.2, 0.0, 0.2)
+    camera_distance: float = 2.4
+    camera_yaw: float = 90.0
+    camera_pitch: float = -45.0
+
+
+class Transport3DEnv(Kinematic3DEnv):
+    """Put every cube and the box on the table, then let go and step back.
+
+    ## Description
+    A TidyBot++-style mobile manipulator, an open-top blue box and `num_cubes` yellow 5 cm cubes
+    on the floor, and a wooden table. Everything must end up on the table. The box is a
+    container: while it is held, every cube whose centre lies inside it is carried along, so
+    the cubes can be transported in one trip. A held object can be released only onto a surface
+    (the floor, the table or the box) within 5 mm. Motions are collision-checked at their
+    endpoint and reverted on collision.
+
+    ## Observation Space
+    A (43 + 12N)-D float64 vector: `robot` (19), `table` (12), `cube0` … (12 each, sorted by
+    name), then `box0` (12). Features: `Kinematic3DRobot` (19): `pos_base_x, pos_base_y,
+    pos_base_rot, joint_1..joint_7, finger_state, grasp_active, grasp_tf_x … grasp_tf_qw`;
+    `Kinematic3DCuboid` (12): `pose_x, pose_y, pose_z, pose_qx, pose_qy, pose_qz, pose_qw,
+    grasp_active, object_type, half_extent_x, half_extent_y, half_extent_z` (the box has
+    object_type 1 = open-top container with 0.01 m walls). Quaternions are ordered
+    (x, y, z, w).
+
+    ## Action Space
+    An 11-D float32 Box: Δbase x, y, yaw and Δjoint 1..7, each bounded by ±0.2, and a gripper
+    command in [−1, 1] (< −0.5 close, > 0.5 open). The base stays within ±1 m.
+
+    ## Reward
+    −1 on every step.
+
+    ## Starting State
+    Robot at the origin, arm retracted, gripper open. Table centre (0.6, 0, 0.2), half extents
+    (0.2, 0.4, 0.2). The box (half extents (0.1, 0.15, 0.1)) and the cubes stand on the floor
+    in [−0.8, 0.8]², axis-aligned, at least 5 cm from each other and from the table, and
+    outside the 0.6 m square around the base.
+
+    ## Episode End
+    Terminates when the gripper is open (finger state ≤ 0.01), the end effector is at least
+    0.2 m from every cube and box centre, and every cube and box centre is at z ≥ 0.3 (on the
+    table, whose top is at 0.4). The registered ids truncate after 500 steps.
+
+    ## Arguments
+    `num_cubes` (default 2), `config` (a `Transport3DConfig`), `render_mode`.
+
+    ## Version History
+    * v0: first release in kinder-garden3d.
+
+    ## Deviations
+    Upstream's start positions of the cubes (floor or inside the box) are unverified; here they
+    start on the floor. Colours replace upstream's textures. Upstream registers no step limit;
+    these ids use 500.
+    """
+
+    def __init__(
+        self,
+        num_cubes: int = 2,
+        config: Transport3DConfig | None = None,
+        render_mode: str | None = "rgb_array",
+    ) -> None:
+        if not isinstance(num_cubes, int) or num_cubes < 0:
+            raise ValueError(f"num_cubes must be an int >= 0, got {num_cubes!r}")
+        self.num_cubes = num_cubes
+        self.table = Object("table", CUBOID_TYPE)
+        self.box = Object("box0", CUBOID_TYPE)
+        self.cubes = [Object(f"cube{i}", CUBOID_TYPE) for i in range(num_cubes)]
+        super().__init__(config or Transport3DConfig(), render_mode=render_mode)
+        self.config: Transport3DConfig
+
+    def constant_bodies(self) -> dict[str, ConstantBody]:
+        return {"floor": floor_body()}
+
+    def movable_names(self, state: ObjectCentricState) -> list[str]:
+        return [*(c.name for c in self.cubes), self.box.name]
+
+    def surface_names(self, state: ObjectCentricState) -> list[str]:
+        return ["floor", self.table.name, self.box.name]
+
+    def object_color(self, obj: Object) -> Rgba:
+        if obj == self.table:
+            return WOOD
+        return BLUE if obj == self.box else YELLOW
+
+    def box_objects(self) -> list[Object]:
+        return [self.robot, self.table, *sorted(self.cubes), self.box]
+
+    def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
+        cfg = self.config
+        x0, x1, y0, y1 = cfg.floor_region
+        table_c = (cfg.table_pos[0], cfg.table_pos[1])
+        table_h = (cfg.table_half[0], cfg.table_half[1])
+        robot_h = (cfg.robot_clearance, cfg.robot_clearance)
+        robot_c = (cfg.home_base_pose[0], cfg.home_base_pose[1])
+        sizes = [cfg.box_half] + [(cfg.cube_half,) * 3] * self.num_cubes
+        for _ in range(cfg.max_reset_tries):
+            placed: list[tuple[tuple[float, float], tuple[float, float]]] = []
+            for half in sizes:
+                h2 = (half[0], half[1])
+                xy = (
+                    float(rng.uniform(x0 + half[0], x1 - half[0])),
+                    float(rng.uniform(y0 + half[1], y1 - half[1])),
+                )
+                m = cfg.placement_margin
+                if (
+                    rects_overlap_2d(xy, h2, table_c, table_h, m)
+                    or rects_overlap_2d(xy, h2, robot_c, robot_h)
+                    or any(rects_overlap_2d(xy, h2, c, h, m) for c, h in placed)
+                ):
+                    break
+                placed.append((xy, h2))
+            if len(placed) != len(sizes):
+                continue
+            (bx, by), _ = placed[0]
+            bh = cfg.box_half
+            features = {
+                self.robot: self.robot_features(),
+                self.table: self.cuboid_features(cfg.table_pos, cfg.table_half),
+                self.box: self.cuboid_features((bx, by, bh[2]), bh, object_type=CONTAINER),
+            }
+            h = cfg.cube_half
+            for cube, ((x, y), _) in zip(self.cubes, placed[1:], strict=True):
+                features[cube] = self.cuboid_features((x, y, h), (h, h, h))
+            return ObjectCentricState.from_features(features)
+        raise self._reset_error("collision-free floor positions for the box and cubes")
+
+    def goal_reached(self, state: ObjectCentricState) -> bool:
+        cfg = self.config
+        if state.get(self.robot, "finger_state") > cfg.goal_max_finger:
+            return False
+        items = [*self.cubes, self.box]
+        if any(state[o][2] < cfg.goal_min_z for o in items):
+            return False
+        ee, _ = self.ee_pose(state)
+        return all(np.linalg.norm(state[o][:3] - ee) >= cfg.goal_ee_clearance for o in items)
