@@ -135,3 +135,9 @@ def test_registered_env_is_box_view_with_object_centric_unwrapped(toy_id: str) -
     assert env.spec is not None and env.spec.max_episode_steps == 50
     get_state = env.get_wrapper_attr("get_state")
     np.testing.assert_array_equal(get_state(), obs)
+
+
+def test_sync_and_async_vector_envs_agree(toy_id: str) -> None:
+    from kinder_core.testing import check_vector_consistency
+
+    check_vector_consistency(toy_id)

@@ -298,6 +298,34 @@ def check_cross_process_determinism(env_id: str, seed: int = 0) -> None:
     )
 
 
+def check_vector_consistency(env_id: str, num_envs: int = 2, num_steps: int = 20) -> None:
+    """``SyncVectorEnv`` and ``AsyncVectorEnv`` give identical results under identical seeds.
+
+    Each sub-env gets ``seed + index`` and sees the same actions; a sub-env that ends autoresets
+    in gymnasium's default (next-step) mode.
+    """
+
+    def thunk() -> gymnasium.Env[Any, Any]:
+        return make(env_id)
+
+    sync = gymnasium.vector.SyncVectorEnv([thunk] * num_envs)
+    asyn = gymnasium.vector.AsyncVectorEnv([thunk] * num_envs)
+    try:
+        o_s, _ = sync.reset(seed=0)
+        o_a, _ = asyn.reset(seed=0)
+        assert np.array_equal(o_s, o_a), f"{env_id}: Sync and Async resets differ"
+        for t, action in enumerate(_rollout_actions(sync.action_space, 0, num_steps)):
+            o_s, r_s, te_s, tr_s, _ = sync.step(action)
+            o_a, r_a, te_a, tr_a, _ = asyn.step(action)
+            assert np.array_equal(o_s, o_a), f"{env_id}: Sync and Async differ at step {t}"
+            assert np.array_equal(r_s, r_a), f"{env_id}: rewards differ at step {t}"
+            assert np.array_equal(te_s, te_a), f"{env_id}: terminations differ at step {t}"
+            assert np.array_equal(tr_s, tr_a), f"{env_id}: truncations differ at step {t}"
+    finally:
+        sync.close()
+        asyn.close()
+
+
 CHECKS: dict[str, Callable[[str], None]] = {
     "docs": check_docs,
     "gymnasium_checker": check_gymnasium_checker,
@@ -312,10 +340,15 @@ CHECKS: dict[str, Callable[[str], None]] = {
 
 
 def check_kinder_env(
-    env_id: str, *, skip: tuple[str, ...] = (), cross_process: bool = False
+    env_id: str,
+    *,
+    skip: tuple[str, ...] = (),
+    cross_process: bool = False,
+    vector: bool = False,
 ) -> None:
     """Run every check of :data:`CHECKS` on ``env_id`` (minus ``skip``); with ``cross_process``,
-    also compare a rollout against a fresh interpreter."""
+    also compare a rollout against a fresh interpreter; with ``vector``, compare Sync and Async
+    vector envs (both spawn processes, so families run them on one id each)."""
     unknown = set(skip) - set(CHECKS)
     if unknown:
         raise ValueError(f"Unknown check(s) {sorted(unknown)}; known: {sorted(CHECKS)}")
@@ -324,3 +357,5 @@ def check_kinder_env(
             check(env_id)
     if cross_process:
         check_cross_process_determinism(env_id)
+    if vector:
+        check_vector_consistency(env_id)
