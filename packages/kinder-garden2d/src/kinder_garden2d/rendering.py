@@ -4,8 +4,10 @@
 into an RGB image. Each primitive is drawn only over its bounding box: the signed distance to the
 primitive's boundary is computed for every pixel centre there, pixels well inside or outside are
 settled by that distance alone, and only the pixels that straddle an edge are supersampled
-(``supersample`` × ``supersample`` points each) to get their coverage. Coverage times ``alpha`` is
-the blend weight, so edges are antialiased and translucent shapes compose in drawing order.
+(``supersample`` × ``supersample`` points each) to get their coverage; the faster ``"analytic"``
+mode derives an edge pixel's coverage from the distance itself. Coverage times ``alpha`` is the
+blend weight, so edges are antialiased and translucent shapes compose in drawing order. The
+canvas keeps 8 bits per channel.
 
 Example::
 
@@ -28,22 +30,27 @@ Color = tuple[int, int, int]
 _SDF = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
 
 
-def rectangle_vertices(x: float, y: float, width: float, height: float, theta: float) -> NDArray:
+def rectangle_vertices(
+    x: float, y: float, width: float, height: float, theta: float
+) -> NDArray[np.float64]:
     """The 4×2 corners of a rectangle anchored at its bottom-left corner ``(x, y)`` and rotated
     by ``theta`` about that corner (the Kinematic2D convention), counter-clockwise from the
     anchor."""
     c, s = np.cos(theta), np.sin(theta)
     local = np.array([[0.0, 0.0], [width, 0.0], [width, height], [0.0, height]])
     rot = np.array([[c, -s], [s, c]])
-    out: NDArray = local @ rot.T + np.array([x, y])
+    out: NDArray[np.float64] = local @ rot.T + np.array([x, y])
     return out
 
 
-def _check_color(color: Color, what: str) -> NDArray[np.float32]:
-    arr = np.asarray(color, dtype=np.float32).reshape(-1)
-    if arr.shape != (3,) or not np.all((arr >= 0) & (arr <= 255)):
-        raise ValueError(f"{what} must be an (r, g, b) triple of ints in [0, 255], got {color!r}")
-    return arr
+def _check_color(color: Color, what: str) -> tuple[float, float, float]:
+    try:
+        r, g, b = (float(v) for v in color)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be an (r, g, b) triple in [0, 255], got {color!r}") from None
+    if not (0.0 <= r <= 255.0 and 0.0 <= g <= 255.0 and 0.0 <= b <= 255.0):
+        raise ValueError(f"{what} must be an (r, g, b) triple in [0, 255], got {color!r}")
+    return (r, g, b)
 
 
 def _check_alpha(alpha: float) -> float:
@@ -55,66 +62,78 @@ def _check_alpha(alpha: float) -> float:
 def _polygon_sdf(vertices: NDArray[np.float64]) -> _SDF:
     """Signed distance to a simple polygon: exact distance to the nearest edge, positive inside
     (even-odd rule, so convex and non-convex simple polygons both work)."""
-    a = vertices
-    b = np.roll(vertices, -1, axis=0)
-    ab = b - a
-    len2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-    ay, by = a[:, 1], b[:, 1]
-    dy = by - ay
-    # Edges with dy == 0 never cross a horizontal ray; avoid dividing by zero for them.
-    inv_dy = np.where(dy != 0.0, 1.0 / np.where(dy != 0.0, dy, 1.0), 0.0)
+    edges = []
+    for (ax, ay), (bx, by) in zip(vertices, np.roll(vertices, -1, axis=0)):
+        dx, dy = float(bx - ax), float(by - ay)
+        inv_len2 = 1.0 / max(dx * dx + dy * dy, 1e-300)
+        # Horizontal edges never cross a horizontal ray; their slope term is unused.
+        slope = dx / dy if dy != 0.0 else 0.0
+        edges.append((float(ax), float(ay), float(by), dx, dy, inv_len2, slope))
 
     def sdf(px: NDArray[np.float64], py: NDArray[np.float64]) -> NDArray[np.float64]:
-        apx = px[:, None] - a[None, :, 0]
-        apy = py[:, None] - a[None, :, 1]
-        t = np.clip((apx * ab[:, 0] + apy * ab[:, 1]) / len2, 0.0, 1.0)
-        ex = apx - t * ab[:, 0]
-        ey = apy - t * ab[:, 1]
-        dist = np.sqrt(np.min(ex * ex + ey * ey, axis=1))
-        straddles = (ay[None, :] > py[:, None]) != (by[None, :] > py[:, None])
-        x_cross = a[None, :, 0] + apy * (ab[:, 0] * inv_dy)[None, :]
-        inside = (np.count_nonzero(straddles & (px[:, None] < x_cross), axis=1) & 1).astype(bool)
+        shape = np.broadcast_shapes(px.shape, py.shape)
+        dist2 = np.full(shape, np.inf)
+        inside = np.zeros(shape, dtype=bool)
+        for ax, ay, by, dx, dy, inv_len2, slope in edges:
+            apx = px - ax
+            apy = py - ay
+            t = np.clip((apx * dx + apy * dy) * inv_len2, 0.0, 1.0)
+            ex = apx - t * dx
+            ey = apy - t * dy
+            np.minimum(dist2, ex * ex + ey * ey, out=dist2)
+            if dy != 0.0:
+                crosses = ((ay > py) != (by > py)) & (px < ax + apy * slope)
+                np.logical_xor(inside, crosses, out=inside)
+        dist = np.sqrt(dist2)
         out: NDArray[np.float64] = np.where(inside, dist, -dist)
         return out
 
     return sdf
 
 
-def _convex_sdf(vertices: NDArray[np.float64]) -> _SDF:
-    """Signed distance bound for a convex polygon: the smallest distance to the edges' lines.
+def _convex_sdf(vertices: list[list[float]]) -> _SDF:
+    """Signed distance bound for a counter-clockwise convex polygon: the smallest distance to
+    the edges' lines.
 
     Exact inside and on the boundary; outside it never exceeds the true distance, so it
     classifies "wholly outside" pixels conservatively, and its sign is exact.
     """
-    a = vertices
-    ab = np.roll(vertices, -1, axis=0) - a
-    # Inward unit normals (the vertices are counter-clockwise).
-    n = np.stack([-ab[:, 1], ab[:, 0]], axis=1)
-    n /= np.maximum(np.hypot(n[:, 0], n[:, 1]), 1e-300)[:, None]
-    offset = np.einsum("ij,ij->i", n, a)
+    edges = []
+    n = len(vertices)
+    for i in range(n):
+        ax, ay = vertices[i]
+        bx, by = vertices[(i + 1) % n]
+        length = float(np.hypot(bx - ax, by - ay))
+        if length == 0.0:
+            continue
+        nx, ny = -(by - ay) / length, (bx - ax) / length  # inward unit normal
+        edges.append((nx, ny, nx * ax + ny * ay))
 
     def sdf(px: NDArray[np.float64], py: NDArray[np.float64]) -> NDArray[np.float64]:
-        out: NDArray[np.float64] = np.min(
-            px[:, None] * n[:, 0] + py[:, None] * n[:, 1] - offset, axis=1
-        )
+        # One pass per edge: numpy reduces a short trailing axis slowly.
+        nx, ny, o = edges[0]
+        out: NDArray[np.float64] = px * nx + py * ny - o
+        for nx, ny, o in edges[1:]:
+            np.minimum(out, px * nx + py * ny - o, out=out)
         return out
 
     return sdf
 
 
-def _orientation(vertices: NDArray[np.float64]) -> tuple[bool, float]:
-    """(convex?, signed area) of a polygon."""
-    d = np.roll(vertices, -1, axis=0) - vertices
-    cross = d[:, 0] * np.roll(d[:, 1], -1) - d[:, 1] * np.roll(d[:, 0], -1)
-    area = 0.5 * float(
-        np.sum(
-            vertices[:, 0] * np.roll(vertices[:, 1], -1)
-            - np.roll(vertices[:, 0], -1) * vertices[:, 1]
-        )
-    )
-    nz = cross[np.abs(cross) > 1e-15 * max(1.0, float(np.abs(cross).max(initial=0.0)))]
-    convex = bool(nz.size == 0 or np.all(nz > 0) or np.all(nz < 0))
-    return convex, area
+def _orientation(vertices: list[list[float]]) -> tuple[bool, float]:
+    """(convex?, signed area) of a polygon; plain Python, as polygons here have few vertices."""
+    n = len(vertices)
+    area2 = 0.0
+    signs = set()
+    for i in range(n):
+        x0, y0 = vertices[i]
+        x1, y1 = vertices[(i + 1) % n]
+        x2, y2 = vertices[(i + 2) % n]
+        area2 += x0 * y1 - x1 * y0
+        cross = (x1 - x0) * (y2 - y1) - (y1 - y0) * (x2 - x1)
+        if cross != 0.0:
+            signs.add(cross > 0.0)
+    return len(signs) <= 1, 0.5 * area2
 
 
 def _circle_sdf(cx: float, cy: float, radius: float) -> _SDF:
@@ -125,14 +144,7 @@ def _circle_sdf(cx: float, cy: float, radius: float) -> _SDF:
     return sdf
 
 
-def _stroke_sdf(inner: _SDF, half_width: float) -> _SDF:
-    """The band of half-width ``half_width`` centred on ``inner``'s boundary."""
-
-    def sdf(px: NDArray[np.float64], py: NDArray[np.float64]) -> NDArray[np.float64]:
-        out: NDArray[np.float64] = half_width - np.abs(inner(px, py))
-        return out
-
-    return sdf
+ANTIALIAS_MODES = ("supersample", "analytic", "none")
 
 
 class Canvas:
@@ -143,7 +155,11 @@ class Canvas:
         width_px: The image width in pixels; the height follows from the aspect ratio.
         background: The background colour.
         supersample: Samples per pixel side used for the coverage of edge pixels (1 disables
-            antialiasing).
+            antialiasing) in the default ``"supersample"`` mode.
+        antialias: ``"supersample"`` (exact coverage of edge pixels from ``supersample²``
+            samples each), ``"analytic"`` (coverage from the signed distance at the pixel centre,
+            ``clip(d / pixel + ½, 0, 1)``: exact for straight edges along the pixel grid, close
+            otherwise, and about twice as fast) or ``"none"``.
     """
 
     def __init__(
@@ -152,6 +168,7 @@ class Canvas:
         width_px: int,
         background: tuple[int, int, int] = (255, 255, 255),
         supersample: int = 3,
+        antialias: str = "supersample",
     ) -> None:
         xmin, xmax, ymin, ymax = (float(v) for v in world_bounds)
         if not (np.isfinite([xmin, xmax, ymin, ymax]).all() and xmax > xmin and ymax > ymin):
@@ -163,6 +180,9 @@ class Canvas:
             raise ValueError(f"width_px must be a positive int, got {width_px!r}")
         if int(supersample) != supersample or supersample < 1:
             raise ValueError(f"supersample must be a positive int, got {supersample!r}")
+        if antialias not in ANTIALIAS_MODES:
+            raise ValueError(f"antialias must be one of {ANTIALIAS_MODES}, got {antialias!r}")
+        self.antialias = antialias
         self.world_bounds = (xmin, xmax, ymin, ymax)
         self.width = int(width_px)
         self.height = max(1, round(self.width * (ymax - ymin) / (xmax - xmin)))
@@ -171,10 +191,16 @@ class Canvas:
         self._px_h = (ymax - ymin) / self.height
         # A pixel whose centre is farther than this from a boundary lies wholly on one side.
         self._half_diag = 0.5 * float(np.hypot(self._px_w, self._px_h))
+        self._inv_px = 2.0 / (self._px_w + self._px_h)
         bg = _check_color(background, "background")
-        self._background = bg
-        self._buf = np.empty((self.height, self.width, 3), dtype=np.float32)
-        self._buf[:] = bg
+        # 8-bit buffer (blending happens in float32 over each primitive's bounding box only), so
+        # clearing and reading out a frame are plain byte copies.
+        self._buf = np.empty((self.height, self.width, 3), dtype=np.uint8)
+        self._buf[:] = np.round(bg).astype(np.uint8)
+        self._background = self._buf.copy()
+        # World coordinates of the pixel centres along each axis.
+        self._xs = np.asarray(xmin + (np.arange(self.width) + 0.5) * self._px_w, np.float64)
+        self._ys = np.asarray(ymax - (np.arange(self.height) + 0.5) * self._px_h, np.float64)
         k = (np.arange(self.supersample) + 0.5) / self.supersample - 0.5
         ox, oy = np.meshgrid(k * self._px_w, k * self._px_h)
         self._sub_dx = ox.reshape(-1)
@@ -190,19 +216,19 @@ class Canvas:
         outline_width: float = 0.0,
     ) -> None:
         """A filled polygon (``(N, 2)`` world coordinates, convex or simple), with an optional
-        outline of ``outline_width`` world units centred on its boundary."""
+        outline: a band of ``outline_width`` world units just inside its boundary."""
         v = np.asarray(vertices, dtype=np.float64)
         if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3 or not np.isfinite(v).all():
             raise ValueError(
                 f"polygon vertices must be a finite (N, 2) array with N >= 3, got shape {v.shape}"
             )
-        convex, area = _orientation(v)
+        vl = v.tolist()
+        convex, area = _orientation(vl)
         if area == 0.0:
             return
-        sdf = _convex_sdf(v if area > 0 else v[::-1]) if convex else _polygon_sdf(v)
+        sdf = _convex_sdf(vl if area > 0 else vl[::-1]) if convex else _polygon_sdf(v)
         lo, hi = v.min(axis=0), v.max(axis=0)
-        self._draw(sdf, lo, hi, _check_color(fill, "fill"), _check_alpha(alpha))
-        self._outline(sdf, lo, hi, outline, outline_width, alpha)
+        self._draw(sdf, lo, hi, fill, alpha, outline, outline_width)
 
     def circle(
         self,
@@ -213,7 +239,8 @@ class Canvas:
         outline: tuple[int, int, int] | None = None,
         outline_width: float = 0.0,
     ) -> None:
-        """A filled disc, with an optional outline centred on its rim."""
+        """A filled disc, with an optional outline: a band of ``outline_width`` world units
+        just inside its rim."""
         c = np.asarray(center, dtype=np.float64).reshape(-1)
         if c.shape != (2,) or not np.isfinite(c).all():
             raise ValueError(f"circle center must be a finite (x, y), got {center!r}")
@@ -221,8 +248,7 @@ class Canvas:
             raise ValueError(f"circle radius must be finite and >= 0, got {radius!r}")
         sdf = _circle_sdf(float(c[0]), float(c[1]), float(radius))
         lo, hi = c - radius, c + radius
-        self._draw(sdf, lo, hi, _check_color(fill, "fill"), _check_alpha(alpha))
-        self._outline(sdf, lo, hi, outline, outline_width, alpha)
+        self._draw(sdf, lo, hi, fill, alpha, outline, outline_width)
 
     def line(
         self,
@@ -247,67 +273,97 @@ class Canvas:
         self.polygon(np.array([a - n, b - n, b + n, a + n]), color, alpha)
 
     def clear(self) -> None:
-        """Paint the whole canvas with the background again (reuses the buffer, so redrawing
-        frames on one canvas avoids reallocating it)."""
-        self._buf[:] = self._background
+        """Restore the background (the background colour, or what :meth:`keep_as_background`
+        kept). Reuses the buffer, so redrawing frames on one canvas avoids reallocating it."""
+        np.copyto(self._buf, self._background)
+
+    def keep_as_background(self) -> None:
+        """Make the current picture the background that :meth:`clear` restores (for drawing
+        constant scenery once and reusing it every frame)."""
+        np.copyto(self._background, self._buf)
 
     def image(self) -> NDArray[np.uint8]:
         """The current picture as a fresh ``(H, W, 3)`` uint8 array."""
-        out: NDArray[np.uint8] = (self._buf + 0.5).astype(np.uint8)
+        out: NDArray[np.uint8] = self._buf.copy()
         return out
 
     # -- internals ------------------------------------------------------------------------------
-    def _outline(
+    def _coverage(
         self,
         sdf: _SDF,
-        lo: NDArray[np.float64],
-        hi: NDArray[np.float64],
-        outline: Color | None,
-        outline_width: float,
-        alpha: float,
-    ) -> None:
-        if outline is None or outline_width <= 0.0:
-            return
-        if not np.isfinite(outline_width):
-            raise ValueError(f"outline_width must be finite, got {outline_width!r}")
-        half = 0.5 * float(outline_width)
-        color = _check_color(outline, "outline")
-        self._draw(_stroke_sdf(sdf, half), lo - half, hi + half, color, alpha)
+        sd: NDArray[np.float64],
+        xs: NDArray[np.float64],
+        ys: NDArray[np.float64],
+        offset: float,
+    ) -> NDArray[np.float32]:
+        """Per-pixel coverage of ``{sdf >= offset}`` given ``sd`` at the pixel centres: 0 or 1
+        away from the boundary, the supersampled fraction on pixels the boundary crosses."""
+        s = sd - offset if offset else sd
+        if self.antialias == "analytic":
+            # Straight-edge approximation: the fraction of a pixel on the inner side of a line
+            # at signed distance s from its centre is about s / pixel + 1/2.
+            return np.clip(s * self._inv_px + 0.5, 0.0, 1.0).astype(np.float32)
+        if self.antialias == "none":
+            return (s >= 0.0).astype(np.float32)
+        hd = self._half_diag
+        cov = (s >= hd).astype(np.float32)
+        edge = np.flatnonzero((s > -hd) & (s < hd))
+        if edge.size:
+            flat = cov.reshape(-1)
+            if self.supersample == 1:
+                flat[edge] = s.reshape(-1)[edge] >= 0.0
+            else:
+                ii, jj = np.divmod(edge, len(xs))
+                sx = (xs[jj][:, None] + self._sub_dx).reshape(-1)
+                sy = (ys[ii][:, None] + self._sub_dy).reshape(-1)
+                inside = (sdf(sx, sy) >= offset).reshape(edge.size, -1)
+                flat[edge] = inside.mean(axis=1, dtype=np.float32)
+        return cov
 
     def _draw(
         self,
         sdf: _SDF,
         lo: NDArray[np.float64],
         hi: NDArray[np.float64],
-        color: NDArray[np.float32],
+        fill: Color,
         alpha: float,
+        outline: Color | None = None,
+        outline_width: float = 0.0,
     ) -> None:
-        """Blend ``color`` over the pixels covered by ``{sdf >= 0}`` (within ``[lo, hi]``)."""
+        """Blend ``fill`` over the pixels covered by ``{sdf >= 0}`` (within ``[lo, hi]``), with
+        ``outline`` over the band ``0 <= sdf < outline_width``."""
+        fill_rgb = _check_color(fill, "fill")
+        alpha = _check_alpha(alpha)
+        has_outline = outline is not None and outline_width > 0.0
+        if has_outline and not np.isfinite(outline_width):
+            raise ValueError(f"outline_width must be finite, got {outline_width!r}")
+        outline_rgb = _check_color(outline, "outline") if outline is not None else fill_rgb
         if alpha <= 0.0:
             return
         xmin, _, _, ymax = self.world_bounds
-        j0 = max(int(np.floor((lo[0] - xmin) / self._px_w)) - 1, 0)
-        j1 = min(int(np.ceil((hi[0] - xmin) / self._px_w)) + 1, self.width)
-        i0 = max(int(np.floor((ymax - hi[1]) / self._px_h)) - 1, 0)
-        i1 = min(int(np.ceil((ymax - lo[1]) / self._px_h)) + 1, self.height)
+        j0 = max(int((lo[0] - xmin) / self._px_w) - 1, 0)
+        j1 = min(int((hi[0] - xmin) / self._px_w) + 2, self.width)
+        i0 = max(int((ymax - hi[1]) / self._px_h) - 1, 0)
+        i1 = min(int((ymax - lo[1]) / self._px_h) + 2, self.height)
         if j0 >= j1 or i0 >= i1:
             return
-        xs = xmin + (np.arange(j0, j1) + 0.5) * self._px_w
-        ys = ymax - (np.arange(i0, i1) + 0.5) * self._px_h
-        nj = j1 - j0
-        px = np.tile(xs, i1 - i0)
-        py = np.repeat(ys, nj)
-        sd = sdf(px, py)
-        cov = (sd >= self._half_diag).astype(np.float32)
-        edge = np.flatnonzero(np.abs(sd) < self._half_diag)
-        if edge.size:
-            if self.supersample == 1:
-                cov[edge] = sd[edge] >= 0.0
-            else:
-                sx = (px[edge, None] + self._sub_dx[None, :]).reshape(-1)
-                sy = (py[edge, None] + self._sub_dy[None, :]).reshape(-1)
-                inside = sdf(sx, sy).reshape(edge.size, -1) >= 0.0
-                cov[edge] = inside.mean(axis=1)
-        weight = cov.reshape(i1 - i0, nj, 1) * np.float32(alpha)
+        xs = self._xs[j0:j1]
+        ys = self._ys[i0:i1]
+        # Pixel centres broadcast as a row of x and a column of y: sd has shape (rows, cols).
+        sd = sdf(xs[None, :], ys[:, None])
         region = self._buf[i0:i1, j0:j1]
-        region += (color - region) * weight
+        f = region.astype(np.float32)
+        cov = self._coverage(sdf, sd, xs, ys, 0.0)
+        if has_outline:
+            inner = self._coverage(sdf, sd, xs, ys, float(outline_width))
+            if alpha != 1.0:
+                cov *= np.float32(alpha)
+                inner *= np.float32(alpha)
+            f += (np.asarray(outline_rgb, np.float32) - f) * cov[:, :, None]
+            f += (np.asarray(fill_rgb, np.float32) - f) * inner[:, :, None]
+        else:
+            if alpha != 1.0:
+                cov *= np.float32(alpha)
+            f += (np.asarray(fill_rgb, np.float32) - f) * cov[:, :, None]
+        f += 0.5
+        region[...] = f

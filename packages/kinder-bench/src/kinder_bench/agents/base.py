@@ -19,8 +19,9 @@ from typing import Any, ClassVar, Generic, TypeVar, cast
 import gymnasium
 import numpy as np
 from gymnasium import spaces
-from kinder_core import ObjectCentricEnv, ObjectCentricState
 from numpy.typing import NDArray
+
+from kinder_core import ObjectCentricEnv, ObjectCentricState
 
 
 class AgentFailure(RuntimeError):
@@ -106,6 +107,7 @@ class Agent(abc.ABC, Generic[ArgsT]):
         """An action clipped to the action bounds, as float64."""
         return cast(
             NDArray[np.float64],
-            np.clip(np.asarray(action, dtype=np.float64), self.action_space.low,
-                    self.action_space.high),
+            np.clip(
+                np.asarray(action, dtype=np.float64), self.action_space.low, self.action_space.high
+            ),
         )

@@ -68,7 +68,8 @@ def interpolation_matrix(knot_times: FloatArray, times: FloatArray) -> FloatArra
     """``W`` with ``W @ points`` = the piecewise-linear spline through ``(knot_times, points)``
     evaluated at ``times`` (times outside the knots hold the end points)."""
     eye = np.eye(len(knot_times))
-    return np.stack([np.interp(times, knot_times, eye[k]) for k in range(len(knot_times))], axis=1)
+    columns = [np.interp(times, knot_times, eye[k]) for k in range(len(knot_times))]
+    return np.stack(columns, axis=1).astype(np.float64)
 
 
 class MPCAgent(Agent[MPCArgs]):
@@ -104,9 +105,9 @@ class MPCAgent(Agent[MPCArgs]):
         if self._plan is None or self._since_solve >= self.args.replan_interval:
             self._solve(self.observed_state(obs))
         assert self._plan is not None
-        action = self._plan[self._since_solve]
+        action: FloatArray = self._plan[self._since_solve].copy()
         self._since_solve += 1
-        return action.copy()
+        return action
 
     def _nominal(self) -> FloatArray:
         a, shift = self.args, self._since_solve

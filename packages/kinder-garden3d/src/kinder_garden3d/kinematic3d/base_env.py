@@ -104,7 +104,7 @@ class Kinematic3DConfig:
     image_height: int = 360
     camera_target: tuple[float, float, float] = (0.0, 0.0, 0.3)
     camera_distance: float = 2.0
-    camera_yaw: float = 90.0
+    camera_yaw: float = 50.0
     camera_pitch: float = -30.0
 
     def __post_init__(self) -> None:
@@ -117,7 +117,10 @@ class Kinematic3DConfig:
             raise ValueError(f"home_joints needs 7 values, got {len(self.home_joints)}")
         x0, x1, y0, y1 = self.world_bounds
         if not (x0 < x1 and y0 < y1):
-            raise ValueError(f"world_bounds must be (x_min, x_max, y_min, y_max), got {(x0, x1)}")
+            raise ValueError(
+                f"world_bounds must be (x_min, x_max, y_min, y_max) with min < max, got "
+                f"{self.world_bounds}"
+            )
         if self.max_reset_tries < 1:
             raise ValueError(f"max_reset_tries must be >= 1, got {self.max_reset_tries}")
 
@@ -190,14 +193,33 @@ class Kinematic3DEnv(ObjectCentricEnv):
             return triangle_parts(float(f[8]), float(f[9]), float(f[10]), float(f[11]))
         raise ValueError(f"Object {obj!r} of type {obj.type.name!r} has no solid shape")
 
-    def extra_motion_collision(self, state: ObjectCentricState, held: Object | None) -> bool:
-        """An extra collision test run at every sweep increment (default: none)."""
+    def extra_motion_collision(
+        self, state: ObjectCentricState, held: Object, pos: Array, quat: Array
+    ) -> bool:
+        """An extra test of the held object at world pose (pos, quat) against the others, run at
+        every sweep increment (default: none)."""
         return False
 
     # -- bounds ---------------------------------------------------------------------------------
     def feature_bounds(self) -> dict[str, tuple[float, float]]:
         x0, x1, y0, y1 = self.config.world_bounds
+        reach = 2.0  # an arm's length (plus a held object) past the base bounds
         bounds: dict[str, tuple[float, float]] = {
+            "pose_x": (x0 - reach, x1 + reach),
+            "pose_y": (y0 - reach, y1 + reach),
+            "pose_z": (-3.0, 3.0),
+            "x": (x0 - reach, x1 + reach),
+            "y": (y0 - reach, y1 + reach),
+            "z": (-3.0, 3.0),
+            "half_extent_x": (0.0, 2.0),
+            "half_extent_y": (0.0, 2.0),
+            "half_extent_z": (0.0, 2.0),
+            "side_a": (0.0, 2.0),
+            "side_b": (0.0, 2.0),
+            "depth": (0.0, 2.0),
+            "Kinematic3DRobot.grasp_tf_x": (-1.0, 1.0),
+            "Kinematic3DRobot.grasp_tf_y": (-1.0, 1.0),
+            "Kinematic3DRobot.grasp_tf_z": (-1.0, 1.0),
             "Kinematic3DRobot.pos_base_x": (x0, x1),
             "Kinematic3DRobot.pos_base_y": (y0, y1),
             "Kinematic3DRobot.pos_base_rot": (-math.pi, math.pi),
@@ -251,7 +273,7 @@ class Kinematic3DEnv(ObjectCentricEnv):
         """The object currently grasped, if any."""
         if state.get(self.robot, "grasp_active") < 0.5:
             return None
-        for obj in state:
+        for obj in state.objects:
             if obj.type in (CUBOID_TYPE, TRIANGLE_TYPE) and state[obj][7] > 0.5:
                 return obj
         return None
@@ -280,6 +302,37 @@ class Kinematic3DEnv(ObjectCentricEnv):
         self._sync(state)
         return self._scene.ee_pose()
 
+    def penetrations(self, state: ObjectCentricState) -> list[tuple[str, str]]:
+        """Pairs of bodies that interpenetrate deeper than ``collision_tolerance`` in ``state``.
+
+        Covers the robot against every collidable object and every pair of collidable objects
+        (observed and constant). A valid initial state has none.
+        """
+        self._sync(state)
+        scene, tol = self._scene, self.config.collision_tolerance
+        names = [n for n, c in self._constants.items() if c.spec.collide]
+        names += [o.name for o in state if o.type in (CUBOID_TYPE, TRIANGLE_TYPE)]
+        bodies = {n: scene.body(n) for n in names}
+        found = [("robot", n) for n, b in bodies.items() if scene.collides(scene.robot, [b], tol)]
+        for i, a in enumerate(names):
+            for b in names[i + 1 :]:
+                if scene.collides(bodies[a], [bodies[b]], tol):
+                    found.append((a, b))
+        return found
+
+    def support_gap(self, state: ObjectCentricState, name: str) -> float:
+        """The smallest gap between object ``name`` and a surface below it (+inf if none within
+        ``min_placement_dist``)."""
+        self._sync(state)
+        scene, gap = self._scene, self.config.min_placement_dist
+        body = scene.body(name)
+        gaps = [
+            scene.support_gap(body, scene.body(s), gap)
+            for s in self.surface_names(state)
+            if s != name
+        ]
+        return min(gaps, default=math.inf)
+
     # -- scene synchronisation ------------------------------------------------------------------
     def _sync(self, state: ObjectCentricState, force: bool = False) -> None:
         """Load ``state`` into the pybullet scene (skipped when it already holds it)."""
@@ -298,7 +351,7 @@ class Kinematic3DEnv(ObjectCentricEnv):
                 scene.ensure_body(name, const.spec)
                 scene.set_pose(name, list(const.pos), list(const.quat))
         keep = set(self._constants)
-        for obj in state:
+        for obj in state.objects:
             f = state[obj]
             if obj == self.robot:
                 scene.set_robot(f[_CONFIG], float(f[_FINGER]))
@@ -350,19 +403,21 @@ class Kinematic3DEnv(ObjectCentricEnv):
         obstacles = self._collidable(state, exclude)
         grasp_tf = (robot[_TF][:3].copy(), robot[_TF][3:].copy())
 
-        if np.any(q1 != q0) and not self._sweep_collides(state, q0, q1, held, grasp_tf, obstacles):
-            self._commit_motion(state, q1, held, carried, grasp_tf)
-        self._sync(state, force=True)
+        if np.any(q1 != q0):
+            if not self._sweep_collides(state, q0, q1, held, grasp_tf, obstacles):
+                self._commit_motion(state, q1, held, carried, grasp_tf)
+            self._sync(state, force=True)  # the sweep left the scene at some increment
 
         command = float(action[10])
         if command < -0.5 and held is None:
             self._try_grasp(state)
+            self._sync(state, force=True)  # closing moved the fingers in the scene
         elif command > 0.5:
             if held is not None:
                 self._try_release(state, held, carried)
             elif robot[_FINGER] != 0.0:
                 robot[_FINGER] = 0.0
-        self._sync(state, force=True)
+            self._sync(state)
         return state
 
     def _held_world_pose(self, grasp_tf: tuple[Array, Array]) -> tuple[Array, Array]:
@@ -385,16 +440,15 @@ class Kinematic3DEnv(ObjectCentricEnv):
         # The endpoint first: a colliding endpoint (the common case) ends the check at once.
         for i in (n, *range(1, n)):
             scene.set_robot(q0 + (q1 - q0) * (i / n))
+            if scene.collides(scene.robot, obstacles, tol):
+                return True
             if held is not None:
                 pos, quat = self._held_world_pose(grasp_tf)
                 scene.set_pose(held.name, pos, quat)
-            if scene.collides(scene.robot, obstacles, tol):
-                return True
-            if held is not None and (
-                scene.collides(held_body, obstacles, tol)
-                or self.extra_motion_collision(state, held)
-            ):
-                return True
+                if scene.collides(held_body, obstacles, tol) or self.extra_motion_collision(
+                    state, held, pos, quat
+                ):
+                    return True
         return False
 
     def _commit_motion(
@@ -476,7 +530,9 @@ class Kinematic3DEnv(ObjectCentricEnv):
             cfg.image_height,
         )
 
-    def render_cameras(self, state: ObjectCentricState | None = None) -> dict[str, NDArray[np.uint8]]:
+    def render_cameras(
+        self, state: ObjectCentricState | None = None
+    ) -> dict[str, NDArray[np.uint8]]:
         """Images from the ``overview``, ``base`` and ``wrist`` cameras (live state by default)."""
         if state is None:
             state = self.get_state()

@@ -82,6 +82,12 @@ class BaseMotion3DEnv(Kinematic3DEnv):
     ## Deviations
     Upstream draws the target with a random yaw, which has no effect on a sphere; only x and y
     are sampled here. Upstream registers no step limit; this id uses 200.
+    Shared with every Kinematic3D env here: the robot is a primitive-shape model of the
+    TidyBot++/Gen3/2F-85 (see `kinder_garden3d/robot/README.md`), not upstream's meshes; plain
+    colours replace textures and there is no textured background (upstream `realistic_bg`);
+    the overview camera looks from yaw 50° instead of 90° so the arm does not hide the scene;
+    robot self-collisions are not checked; touching counts as a collision only past 0.1 mm of
+    penetration.
     """
 
     def __init__(
@@ -100,10 +106,6 @@ class BaseMotion3DEnv(Kinematic3DEnv):
 
     def box_objects(self) -> list[Object]:
         return [self.robot, self.target]
-
-    def feature_bounds(self) -> dict[str, tuple[float, float]]:
-        lo, hi = self.config.target_xy_bounds
-        return {**super().feature_bounds(), "x": (lo, hi), "y": (lo, hi)}
 
     def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
         cfg = self.config

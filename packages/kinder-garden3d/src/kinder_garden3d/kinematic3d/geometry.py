@@ -113,7 +113,8 @@ def triangle_vertices_2d(triangle_type: float, side_a: float, side_b: float) -> 
         pts = np.array([[0.0, 0.0], [side_a, 0.0], [side_a / 2.0, h]])
     else:
         pts = np.array([[0.0, 0.0], [side_a, 0.0], [0.0, side_b]])
-    return pts - pts.mean(axis=0)
+    centred: Array = pts - pts.mean(axis=0)
+    return centred
 
 
 def cuboid_parts(object_type: float, half: Array) -> list[Part]:
@@ -187,20 +188,16 @@ def convex_penetration(
     norms = np.linalg.norm(axes, axis=1)
     axes = axes[norms > 1e-9] / norms[norms > 1e-9, None]
     pa, pb = va @ axes.T, vb @ axes.T
-    overlap = np.minimum(pa.max(axis=0), pb.max(axis=0)) - np.maximum(pa.min(axis=0), pb.min(axis=0))
+    overlap = np.minimum(pa.max(axis=0), pb.max(axis=0)) - np.maximum(
+        pa.min(axis=0), pb.min(axis=0)
+    )
     return float(overlap.min())
 
 
-def world_z_range(parts: list[Part], pos: Array, quat: Array) -> tuple[float, float]:
-    """Lowest and highest world z of a set of parts."""
-    zs = np.concatenate([part_vertices(p, pos, quat)[:, 2] for p in parts])
-    return float(zs.min()), float(zs.max())
+Xy = tuple[float, float]
 
 
-def rects_overlap_2d(
-    c1: tuple[float, float], h1: tuple[float, float], c2: tuple[float, float], h2: tuple[float, float],
-    margin: float = 0.0,
-) -> bool:  # fmt: skip
+def rects_overlap_2d(c1: Xy, h1: Xy, c2: Xy, h2: Xy, margin: float = 0.0) -> bool:
     """Axis-aligned rectangles (centre, half extents) overlap, with ``margin`` of clearance."""
     return (
         abs(c1[0] - c2[0]) < h1[0] + h2[0] + margin and abs(c1[1] - c2[1]) < h1[1] + h2[1] + margin

@@ -39,7 +39,14 @@ ROBOT_TYPE = Type(
 #: open-top hollow box whose walls and floor are :data:`WALL_THICKNESS` thick.
 CUBOID_TYPE = Type(
     "Kinematic3DCuboid",
-    (*POSE_FEATURES, "grasp_active", "object_type", "half_extent_x", "half_extent_y", "half_extent_z"),
+    (
+        *POSE_FEATURES,
+        "grasp_active",
+        "object_type",
+        "half_extent_x",
+        "half_extent_y",
+        "half_extent_z",
+    ),
 )
 
 #: A triangular prism with its axis along the local z axis. ``triangle_type`` 0 = equilateral

@@ -54,8 +54,8 @@ class Obstruction3DConfig(Kinematic3DConfig):
     on_region_prob: float = 0.9
     max_overhang: float = 0.25
     placement_margin: float = 0.005
-    camera_target: tuple[float, float, float] = (0.2, 0.0, 0.0)
-    camera_distance: float = 1.4
+    camera_target: tuple[float, float, float] = (0.2, 0.0, -0.05)
+    camera_distance: float = 1.3
     camera_pitch: float = -40.0
 
 
@@ -112,6 +112,12 @@ class Obstruction3DEnv(Kinematic3DEnv):
 
     ## Deviations
     Objects are sampled axis-aligned. Upstream registers no step limit; these ids use 500.
+    Shared with every Kinematic3D env here: the robot is a primitive-shape model of the
+    TidyBot++/Gen3/2F-85 (see `kinder_garden3d/robot/README.md`), not upstream's meshes; plain
+    colours replace textures and there is no textured background (upstream `realistic_bg`);
+    the overview camera looks from yaw 50° instead of 90° so the arm does not hide the scene;
+    robot self-collisions are not checked; touching counts as a collision only past 0.1 mm of
+    penetration.
     """
 
     def __init__(
@@ -125,7 +131,9 @@ class Obstruction3DEnv(Kinematic3DEnv):
         self.num_obstructions = num_obstructions
         self.region = Object("target_region", CUBOID_TYPE)
         self.block = Object("target_block", CUBOID_TYPE)
-        self.obstructions = [Object(f"obstruction{i}", CUBOID_TYPE) for i in range(num_obstructions)]
+        self.obstructions = [
+            Object(f"obstruction{i}", CUBOID_TYPE) for i in range(num_obstructions)
+        ]
         super().__init__(config or Obstruction3DConfig(), render_mode=render_mode)
         self.config: Obstruction3DConfig
 
@@ -174,8 +182,9 @@ class Obstruction3DEnv(Kinematic3DEnv):
             ok = True
             for _o in self.obstructions:
                 oh = rng.uniform(cfg.obstruction_half_low, cfg.obstruction_half_high)
+                on_region = rng.uniform() < cfg.on_region_prob
                 for _try in range(50):
-                    if rng.uniform() < cfg.on_region_prob:
+                    if on_region:
                         slack = 2 * cfg.max_overhang * oh[:2]  # 25 % of the footprint
                         lim = np.maximum(rh[:2] - oh[:2] + slack, 0.0)
                         oxy = (
@@ -218,7 +227,9 @@ class Obstruction3DEnv(Kinematic3DEnv):
     def goal_reached(self, state: ObjectCentricState) -> bool:
         if state.get(self.robot, "grasp_active") > 0.5:
             return False
-        return block_on_region(state[self.block], state[self.region], self.config.min_placement_dist)
+        return block_on_region(
+            state[self.block], state[self.region], self.config.min_placement_dist
+        )
 
 
 def block_on_region(block: np.ndarray, region: np.ndarray, tol: float) -> bool:

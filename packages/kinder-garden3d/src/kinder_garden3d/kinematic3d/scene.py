@@ -13,6 +13,7 @@ reconnects lazily if it is used again.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -139,20 +140,16 @@ class PyBulletScene:
     def close(self) -> None:
         """Disconnect the client (idempotent)."""
         if self._client is not None:
-            try:
+            with contextlib.suppress(pb.error):
                 pb.disconnect(physicsClientId=self._client)
-            except pb.error:
-                pass
             self._client = None
             self._bodies = {}
             self._arm_idx, self._finger_idx, self._finger_links = [], [], []
             self._link_idx = {}
 
     def __del__(self) -> None:
-        try:
+        with contextlib.suppress(Exception):  # at interpreter shutdown pybullet may be gone
             self.close()
-        except Exception:  # interpreter shutdown: pybullet may already be gone
-            pass
 
     # -- bodies ---------------------------------------------------------------------------------
     def _create_body(self, spec: BodySpec) -> int:
@@ -164,34 +161,39 @@ class PyBulletScene:
             return int(pb.createMultiBody(0.0, -1, vis, physicsClientId=cid))
         cols, viss = [], []
         for part in spec.parts:
+            frame = list(part.pos)
             if part.kind == "box":
                 col = (
                     pb.createCollisionShape(
-                        pb.GEOM_BOX, halfExtents=list(part.params), physicsClientId=cid
+                        pb.GEOM_BOX, halfExtents=list(part.params), collisionFramePosition=frame,
+                        physicsClientId=cid,
                     )
                     if spec.collide
                     else -1
-                )
+                )  # fmt: skip
                 vis = pb.createVisualShape(
                     pb.GEOM_BOX, halfExtents=list(part.params), rgbaColor=spec.rgba,
-                    physicsClientId=cid,
+                    visualFramePosition=frame, physicsClientId=cid,
                 )  # fmt: skip
             else:
                 hull, _ = _shrunk_prism(part)
                 col = (
-                    pb.createCollisionShape(pb.GEOM_MESH, vertices=hull, physicsClientId=cid)
+                    pb.createCollisionShape(
+                        pb.GEOM_MESH, vertices=hull, collisionFramePosition=frame,
+                        physicsClientId=cid,
+                    )
                     if spec.collide
                     else -1
-                )
+                )  # fmt: skip
                 verts, idx = _prism_mesh(part)
                 vis = pb.createVisualShape(
                     pb.GEOM_MESH, vertices=verts, indices=idx, rgbaColor=spec.rgba,
-                    physicsClientId=cid,
+                    visualFramePosition=frame, physicsClientId=cid,
                 )  # fmt: skip
             cols.append(col)
             viss.append(vis)
-        first = spec.parts[0]
         n = len(spec.parts) - 1
+        # Extra parts are fixed links at the body origin; every part carries its own offset.
         body = pb.createMultiBody(
             baseMass=0.0,
             baseCollisionShapeIndex=cols[0],
@@ -200,7 +202,7 @@ class PyBulletScene:
             linkMasses=[0.0] * n,
             linkCollisionShapeIndices=cols[1:],
             linkVisualShapeIndices=viss[1:],
-            linkPositions=[list(p.pos) for p in spec.parts[1:]],
+            linkPositions=[[0.0, 0.0, 0.0]] * n,
             linkOrientations=[[0.0, 0.0, 0.0, 1.0]] * n,
             linkInertialFramePositions=[[0.0, 0.0, 0.0]] * n,
             linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * n,
@@ -209,10 +211,6 @@ class PyBulletScene:
             linkJointAxis=[[0.0, 0.0, 1.0]] * n,
             physicsClientId=cid,
         )
-        if first.pos != (0.0, 0.0, 0.0):
-            # The base part is offset: rebuild with an offset base frame is not supported by
-            # createMultiBody, so offsets of the first part must be zero.
-            raise ValueError("The first part of a body must sit at the body origin")
         return int(body)
 
     def ensure_body(self, name: str, spec: BodySpec) -> int:
@@ -252,11 +250,21 @@ class PyBulletScene:
             [0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)],
             physicsClientId=cid,
         )
-        for idx, q in zip(self._arm_idx, config[3:10], strict=True):
-            pb.resetJointState(self.robot, idx, float(q), physicsClientId=cid)
-        if finger_state is not None:
-            for idx, q in zip(self._finger_idx, finger_joint_positions(finger_state), strict=True):
-                pb.resetJointState(self.robot, idx, q, physicsClientId=cid)
+        if finger_state is None:
+            pb.resetJointStatesMultiDof(
+                self.robot,
+                self._arm_idx,
+                [[float(q)] for q in config[3:10]],
+                physicsClientId=cid,
+            )
+        else:
+            left, right = finger_joint_positions(finger_state)
+            pb.resetJointStatesMultiDof(
+                self.robot,
+                self._arm_idx + self._finger_idx,
+                [[float(q)] for q in config[3:10]] + [[left], [right]],
+                physicsClientId=cid,
+            )
 
     def ee_pose(self) -> tuple[Array, Array]:
         """World pose of the end effector (the pinch point; z = approach, y = closing)."""
@@ -309,9 +317,7 @@ class PyBulletScene:
     def marker_touching(self, bodies: list[int]) -> list[int]:
         """The bodies that touch the grasp marker."""
         cid = self.client
-        return [
-            b for b in bodies if pb.getClosestPoints(self.marker, b, 0.0, physicsClientId=cid)
-        ]
+        return [b for b in bodies if pb.getClosestPoints(self.marker, b, 0.0, physicsClientId=cid)]
 
     def fingers_touch(self, body: int) -> bool:
         """Whether either finger link touches ``body``."""

@@ -40,9 +40,8 @@ class Table3DConfig(Kinematic3DConfig):
     cube_half: float = 0.025
     lift_height: float = 0.1
     placement_margin: float = 0.01
-    camera_target: tuple[float, float, float] = (0.4, 0.0, 0.3)
+    camera_target: tuple[float, float, float] = (0.35, 0.0, 0.3)
     camera_distance: float = 1.8
-    camera_yaw: float = 90.0
     camera_pitch: float = -35.0
 
 
@@ -95,6 +94,12 @@ class Table3DEnv(Kinematic3DEnv):
     The upstream docs say −0.01 per step; the upstream code (and this env) gives −1. The floor
     is a collision object here, so the arm cannot pass through it. Upstream registers no step
     limit; these ids use 300.
+    Shared with every Kinematic3D env here: the robot is a primitive-shape model of the
+    TidyBot++/Gen3/2F-85 (see `kinder_garden3d/robot/README.md`), not upstream's meshes; plain
+    colours replace textures and there is no textured background (upstream `realistic_bg`);
+    the overview camera looks from yaw 50° instead of 90° so the arm does not hide the scene;
+    robot self-collisions are not checked; touching counts as a collision only past 0.1 mm of
+    penetration.
     """
 
     def __init__(
@@ -135,15 +140,19 @@ class Table3DEnv(Kinematic3DEnv):
         for _ in range(cfg.max_reset_tries):
             centres: list[tuple[float, float]] = []
             for _cube in self.cubes:
-                xy = (
-                    float(rng.uniform(tx - thx + h, tx + thx - h)),
-                    float(rng.uniform(ty - thy + h, ty + thy - h)),
-                )
-                if any(
-                    rects_overlap_2d(xy, (h, h), c, (h, h), cfg.placement_margin) for c in centres
-                ):
+                for _try in range(100):
+                    xy = (
+                        float(rng.uniform(tx - thx + h, tx + thx - h)),
+                        float(rng.uniform(ty - thy + h, ty + thy - h)),
+                    )
+                    if not any(
+                        rects_overlap_2d(xy, (h, h), c, (h, h), cfg.placement_margin)
+                        for c in centres
+                    ):
+                        centres.append(xy)
+                        break
+                else:
                     break
-                centres.append(xy)
             if len(centres) != len(self.cubes):
                 continue
             features = {

@@ -16,9 +16,9 @@ from kinder_garden3d.kinematic3d.base_env import (
     Kinematic3DEnv,
     Rgba,
 )
+from kinder_garden3d.kinematic3d.geometry import rects_overlap_2d
 from kinder_garden3d.kinematic3d.object_types import CONTAINER, CUBOID_TYPE
 from kinder_garden3d.kinematic3d.table3d import floor_body
-from kinder_garden3d.kinematic3d.geometry import rects_overlap_2d
 
 Vec3 = tuple[float, float, float]
 
@@ -51,9 +51,8 @@ class Transport3DConfig(Kinematic3DConfig):
     goal_min_z: float = 0.3
     goal_ee_clearance: float = 0.2
     goal_max_finger: float = 0.01
-    camera_target: tuple[float, float, float] = (0.2, 0.0, 0.2)
-    camera_distance: float = 2.4
-    camera_yaw: float = 90.0
+    camera_target: tuple[float, float, float] = (0.0, 0.0, 0.2)
+    camera_distance: float = 2.6
     camera_pitch: float = -45.0
 
 
@@ -105,6 +104,12 @@ class Transport3DEnv(Kinematic3DEnv):
     Upstream's start positions of the cubes (floor or inside the box) are unverified; here they
     start on the floor. Colours replace upstream's textures. Upstream registers no step limit;
     these ids use 500.
+    Shared with every Kinematic3D env here: the robot is a primitive-shape model of the
+    TidyBot++/Gen3/2F-85 (see `kinder_garden3d/robot/README.md`), not upstream's meshes; plain
+    colours replace textures and there is no textured background (upstream `realistic_bg`);
+    the overview camera looks from yaw 50° instead of 90° so the arm does not hide the scene;
+    robot self-collisions are not checked; touching counts as a collision only past 0.1 mm of
+    penetration.
     """
 
     def __init__(
@@ -149,20 +154,23 @@ class Transport3DEnv(Kinematic3DEnv):
         sizes = [cfg.box_half] + [(cfg.cube_half,) * 3] * self.num_cubes
         for _ in range(cfg.max_reset_tries):
             placed: list[tuple[tuple[float, float], tuple[float, float]]] = []
+            m = cfg.placement_margin
             for half in sizes:
                 h2 = (half[0], half[1])
-                xy = (
-                    float(rng.uniform(x0 + half[0], x1 - half[0])),
-                    float(rng.uniform(y0 + half[1], y1 - half[1])),
-                )
-                m = cfg.placement_margin
-                if (
-                    rects_overlap_2d(xy, h2, table_c, table_h, m)
-                    or rects_overlap_2d(xy, h2, robot_c, robot_h)
-                    or any(rects_overlap_2d(xy, h2, c, h, m) for c, h in placed)
-                ):
+                for _try in range(100):
+                    xy = (
+                        float(rng.uniform(x0 + half[0], x1 - half[0])),
+                        float(rng.uniform(y0 + half[1], y1 - half[1])),
+                    )
+                    if not (
+                        rects_overlap_2d(xy, h2, table_c, table_h, m)
+                        or rects_overlap_2d(xy, h2, robot_c, robot_h)
+                        or any(rects_overlap_2d(xy, h2, c, h, m) for c, h in placed)
+                    ):
+                        placed.append((xy, h2))
+                        break
+                else:
                     break
-                placed.append((xy, h2))
             if len(placed) != len(sizes):
                 continue
             (bx, by), _ = placed[0]

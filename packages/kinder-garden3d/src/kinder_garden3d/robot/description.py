@@ -406,7 +406,9 @@ def robot_description() -> RobotDescription:
             (0.0, 0.0, 0.0),
             Inertial(0.1, (0.0, inner + pad_half[1], pad_z), _box_inertia(0.1, pad_half)),
             (
-                Geom("left_pad", "box", pad_half, (0.0, inner + pad_half[1], pad_z), rgba=PAD_COLOR),
+                Geom(
+                    "left_pad", "box", pad_half, (0.0, inner + pad_half[1], pad_z), rgba=PAD_COLOR
+                ),
                 Geom(
                     "left_link",
                     "box",
@@ -445,7 +447,14 @@ def robot_description() -> RobotDescription:
         Frame("arm_base", "gen3_base_link", (0.0, 0.0, 0.0)),
     )
     cameras = (
-        Camera("base", "base_link", (0.2525, 0.0, 0.335), (0.0, -math.pi / 4, -_HALF_PI), 52.2),
+        # TidyBot++ base camera: MuJoCo euler (0, -pi/4, -pi/2), i.e. looking forward, 45 deg down.
+        Camera(
+            "base",
+            "base_link",
+            (0.2525, 0.0, 0.335),
+            mujoco_euler_to_rpy((0.0, -math.pi / 4, -_HALF_PI)),
+            52.2,
+        ),
         # On the Gen3 vision module, looking along the approach direction (bracelet -z).
         Camera("wrist", "bracelet_link", (0.0, -0.05639, -0.058475), (0.0, 0.0, math.pi), 41.8),
     )
@@ -520,6 +529,26 @@ def quat_xyzw_to_matrix(q: NDArray[np.float64] | tuple[float, ...]) -> NDArray[n
     )
 
 
+def matrix_to_rpy(m: NDArray[np.float64]) -> Vec3:
+    """Rotation matrix to URDF roll-pitch-yaw (inverse of :func:`rpy_to_matrix`)."""
+    pitch = math.asin(max(-1.0, min(1.0, -float(m[2, 0]))))
+    if abs(math.cos(pitch)) > 1e-9:
+        roll = math.atan2(float(m[2, 1]), float(m[2, 2]))
+        yaw = math.atan2(float(m[1, 0]), float(m[0, 0]))
+    else:  # gimbal lock: put everything in yaw
+        roll = 0.0
+        yaw = math.atan2(-float(m[0, 1]), float(m[1, 1]))
+    return (roll, pitch, yaw)
+
+
+def mujoco_euler_to_rpy(euler: Vec3) -> Vec3:
+    """MuJoCo's default ``euler`` (intrinsic x-y-z: R = Rx Ry Rz) as URDF roll-pitch-yaw."""
+    rx = rpy_to_matrix((euler[0], 0.0, 0.0))
+    ry = rpy_to_matrix((0.0, euler[1], 0.0))
+    rz = rpy_to_matrix((0.0, 0.0, euler[2]))
+    return matrix_to_rpy(rx @ ry @ rz)
+
+
 def rpy_to_quat_xyzw(rpy: Vec3) -> NDArray[np.float64]:
     """URDF roll-pitch-yaw to a quaternion (x, y, z, w)."""
     return matrix_to_quat_xyzw(rpy_to_matrix(rpy))
@@ -574,4 +603,5 @@ def forward_kinematics(
 def _axis_angle(axis: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
     axis = axis / np.linalg.norm(axis)
     k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
+    rot: NDArray[np.float64] = np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
+    return rot

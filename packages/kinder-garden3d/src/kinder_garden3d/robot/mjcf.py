@@ -10,7 +10,9 @@ The model contains:
   ``arm_1`` … ``arm_7`` (limits 200/100 N m as in the TidyBot++ model); ``fingers_actuator``, a
   position-like servo with ctrl in [0, 255] (0 = open, 255 = closed);
 * sites ``pinch_site`` (the tool centre point), ``flange`` and ``arm_base``; cameras ``base`` and
-  ``wrist``.
+  ``wrist``;
+* collision geoms (class ``collision``) with contype 2 / conaffinity 1, so the robot collides with
+  world geoms of the default contype 1 but never with itself.
 
 Every name can be prefixed (``prefix="robot_"``) so the robot can be embedded in a larger scene,
 e.g. with ``mujoco.MjSpec.from_string(to_mjcf()).attach`` or by splicing the strings returned by
@@ -82,7 +84,7 @@ def mjcf_parts(
     def body(link: Link, depth: int) -> list[str]:
         ind = "  " * depth
         out = [
-            f"{ind}<body name={quoteattr(prefix + link.name)} pos=\"{_f(link.pos)}\" "
+            f'{ind}<body name={quoteattr(prefix + link.name)} pos="{_f(link.pos)}" '
             f'quat="{_quat_wxyz(link.rpy)}">'
         ]
         if link.inertial is not None:
@@ -98,7 +100,7 @@ def mjcf_parts(
                 (desc.base_joint_names[2], "hinge", "0 0 1"),
             ):
                 out.append(
-                    f"{ind}  <joint name={quoteattr(prefix + name)} type=\"{kind}\" axis=\"{axis}\" "
+                    f'{ind}  <joint name={quoteattr(prefix + name)} type="{kind}" axis="{axis}" '
                     'damping="0" armature="0"/>'
                 )
         joint = link.joint
@@ -120,7 +122,7 @@ def mjcf_parts(
         for frame in desc.frames:
             if frame.link == link.name:
                 out.append(
-                    f"{ind}  <site name={quoteattr(prefix + frame.name)} pos=\"{_f(frame.pos)}\" "
+                    f'{ind}  <site name={quoteattr(prefix + frame.name)} pos="{_f(frame.pos)}" '
                     f'quat="{_quat_wxyz(frame.rpy)}" size="0.005" rgba="1 0 0 0.5" group="4"/>'
                 )
         for camera in desc.cameras:
@@ -161,13 +163,14 @@ def mjcf_parts(
         f"    <general name={quoteattr(prefix + 'fingers_actuator')} "
         f"joint={quoteattr(prefix + desc.finger_joint_names[0])} "
         f'ctrlrange="0 255" ctrllimited="true" forcerange="-235 235" forcelimited="true" '
-        f'gainprm="{gain!r}" biasprm="0 {-kp!r} {-kv!r}"/>'
+        f'biastype="affine" gainprm="{gain!r}" biasprm="0 {-kp!r} {-kv!r}"/>'
     )
     actuator = "\n".join(acts)
     left, right = (prefix + n for n in desc.finger_joint_names)
     equality = f'    <joint joint1="{right}" joint2="{left}" polycoef="0 1 0 0 0"/>'
     default = (
-        '    <default class="collision"><geom group="3" contype="1" conaffinity="1"/></default>\n'
+        # contype 2 / conaffinity 1: the robot touches the world (contype 1) but not itself.
+        '    <default class="collision"><geom group="3" contype="2" conaffinity="1"/></default>\n'
         '    <default class="visual"><geom group="2" contype="0" conaffinity="0"/></default>'
     )
     return MjcfParts(worldbody, actuator, equality, default)

@@ -1,0 +1,178 @@
+"""Agents: the interface, the registry, and the baselines.
+
+Agents are looked up by name (``random``, ``mpc``, ...) or by a ``"module:Class"`` entry point, so
+new baselines plug in without touching the runner. Arguments are one frozen dataclass per agent
+(``Agent.Args``) with a docstring under every field; :func:`make_args` builds one from a mapping
+(values may be strings from the command line) and :func:`describe_args` lists the fields.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import difflib
+import importlib
+import inspect
+import itertools
+import json
+import textwrap
+import types
+import typing
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium
+
+from kinder_bench.agents.base import Agent, AgentFailure, NoArgs
+from kinder_bench.agents.mpc import MPCAgent, MPCArgs
+from kinder_bench.agents.random_agent import RandomAgent
+
+#: Agent name → ``"module:Class"``. Entry points are strings so heavy baselines import lazily.
+AGENTS: dict[str, str] = {
+    "random": "kinder_bench.agents.random_agent:RandomAgent",
+    "mpc": "kinder_bench.agents.mpc:MPCAgent",
+}
+
+
+def register_agent(name: str, entry_point: str) -> None:
+    """Make ``entry_point`` (``"module:Class"`` of an :class:`Agent`) available as ``name``."""
+    if ":" not in entry_point:
+        raise ValueError(f"entry_point must be 'module:Class', got {entry_point!r}")
+    if name in AGENTS and AGENTS[name] != entry_point:
+        raise ValueError(f"Agent {name!r} is already registered as {AGENTS[name]}")
+    AGENTS[name] = entry_point
+
+
+def agent_class(name: str) -> type[Agent[Any]]:
+    """The agent class for a registered name or a ``"module:Class"`` entry point."""
+    entry_point = AGENTS.get(name, name)
+    if ":" not in entry_point:
+        close = difflib.get_close_matches(name, list(AGENTS), n=3)
+        hint = f" Did you mean {', '.join(map(repr, close))}?" if close else ""
+        raise ValueError(
+            f"Unknown agent {name!r}.{hint} Known agents: {', '.join(sorted(AGENTS))} (or a "
+            f"'module:Class' entry point)."
+        )
+    module_name, _, attr = entry_point.partition(":")
+    try:
+        cls = getattr(importlib.import_module(module_name), attr)
+    except (ImportError, AttributeError) as e:
+        raise ValueError(f"Cannot load agent {name!r} from {entry_point!r}: {e}") from e
+    if not (isinstance(cls, type) and issubclass(cls, Agent)):
+        raise ValueError(f"Agent {name!r} ({entry_point}) is not an Agent subclass")
+    return cls
+
+
+def _parse_value(raw: Any, annotation: Any, where: str) -> Any:
+    if not isinstance(raw, str):
+        return raw
+    origin = typing.get_origin(annotation)
+    union = origin is typing.Union or origin is types.UnionType
+    options = typing.get_args(annotation) if union else (annotation,)
+    if type(None) in options and raw.lower() in ("none", "null"):
+        return None
+    for option in options:
+        if option is bool:
+            if raw.lower() in ("1", "true", "yes", "on"):
+                return True
+            if raw.lower() in ("0", "false", "no", "off"):
+                return False
+        elif option in (int, float):
+            try:
+                return option(raw)
+            except ValueError:
+                continue
+        elif option is str:
+            return raw
+    try:
+        return json.loads(raw)
+    except json.JSONDecodeError:
+        raise ValueError(f"{where}: cannot parse {raw!r} as {annotation}") from None
+
+
+def make_args(cls: type[Agent[Any]], values: Mapping[str, Any] | None = None) -> Any:
+    """``cls.Args`` built from ``values`` (unset fields keep their defaults; strings are parsed
+    by the field's type)."""
+    values = dict(values or {})
+    fields = {f.name: f for f in dataclasses.fields(cls.Args)}
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ValueError(
+            f"Unknown argument(s) {unknown} for agent {cls.name!r}; its arguments: "
+            f"{sorted(fields) or 'none'}"
+        )
+    hints = typing.get_type_hints(cls.Args)
+    parsed = {
+        k: _parse_value(v, hints[k], f"agent {cls.name!r} argument {k!r}")
+        for k, v in values.items()
+    }
+    return cls.Args(**parsed)
+
+
+def args_to_dict(args: Any) -> dict[str, Any]:
+    """A dataclass of arguments as a plain (JSON-able) dict."""
+    return dataclasses.asdict(args)
+
+
+def field_docs(args_cls: type[Any]) -> dict[str, str]:
+    """The docstrings written under each field of a dataclass (CleanRL style)."""
+    try:
+        source = textwrap.dedent(inspect.getsource(args_cls))
+    except (OSError, TypeError):
+        return {}
+    body = ast.parse(source).body[0]
+    assert isinstance(body, ast.ClassDef)
+    docs: dict[str, str] = {}
+    stmts = body.body
+    for stmt, nxt in itertools.pairwise(stmts):
+        if (
+            isinstance(stmt, ast.AnnAssign)
+            and isinstance(stmt.target, ast.Name)
+            and isinstance(nxt, ast.Expr)
+            and isinstance(nxt.value, ast.Constant)
+            and isinstance(nxt.value.value, str)
+        ):
+            docs[stmt.target.id] = " ".join(nxt.value.value.split())
+    return docs
+
+
+def describe_args(cls: type[Agent[Any]]) -> list[tuple[str, str, Any, str]]:
+    """``(name, type, default, docstring)`` for each argument of an agent."""
+    docs = field_docs(cls.Args)
+    hints = typing.get_type_hints(cls.Args)
+    out = []
+    for f in dataclasses.fields(cls.Args):
+        type_name = getattr(hints[f.name], "__name__", str(hints[f.name]))
+        out.append((f.name, type_name, f.default, docs.get(f.name, "")))
+    return out
+
+
+def make_agent(
+    name: str,
+    env: gymnasium.Env[Any, Any],
+    args: Mapping[str, Any] | Any | None = None,
+    seed: int = 0,
+) -> Agent[Any]:
+    """An agent by name, with arguments given as a mapping or as its ``Args`` dataclass."""
+    cls = agent_class(name)
+    if args is None or isinstance(args, Mapping):
+        args = make_args(cls, args)
+    return cls(env, args, seed)
+
+
+__all__ = [
+    "AGENTS",
+    "Agent",
+    "AgentFailure",
+    "MPCAgent",
+    "MPCArgs",
+    "NoArgs",
+    "RandomAgent",
+    "agent_class",
+    "args_to_dict",
+    "describe_args",
+    "field_docs",
+    "make_agent",
+    "make_args",
+    "register_agent",
+]

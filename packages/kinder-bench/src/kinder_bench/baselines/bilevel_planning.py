@@ -1,0 +1,376 @@
+"""Bilevel planning (BP): search-then-sample task and motion planning on the env's own model.
+
+The paper's strongest baseline (KinDER spec, baselines §2 and §8), as one self-contained module.
+Planning from a state ``x0``:
+
+1. Abstract ``x0`` with the env's :class:`~kinder_gym.model.PlanningModel` (predicates) and derive
+   the goal atoms.
+2. Enumerate abstract plans (sequences of ground operators) by heuristic search with hFF over all
+   ground operators: A* (``g + h``, the upstream code) or greedy best-first (``h``, the paper's
+   wording), see :mod:`kinder_bench.baselines.bilevel_search`. At most ``max_abstract_plans``
+   plans are tried, within ``planning_timeout`` seconds for search and refinement together.
+3. Refine each plan by depth-first backtracking over the skills' samplers: for step ``i``, draw up
+   to ``samples_per_step`` parameter vectors (one for a skill without parameters: it is
+   deterministic), roll the skill out with the env's own pure ``transition`` for at most
+   ``max_skill_horizon`` steps, and accept the sample iff the reached state's abstraction equals
+   the operator's predicted abstract state exactly; otherwise (or on
+   :class:`~kinder_gym.skills.SkillFailure`) draw the next sample, and when all fail, backtrack to
+   step ``i − 1``. A rollout that reaches the env's goal ends the plan early, and the last step
+   must reach the env's goal (not just the goal atoms).
+
+The refined plan is a list of actions, executed from the agent's :meth:`act`. Execution is
+monitored: the agent remembers the state each action was planned from and, when the observed state
+differs (``divergence_atol``), plans again from the observed state (``max_replans`` times per
+episode); it also plans again if the actions run out before the episode ends. The upstream agent
+is open-loop (no monitoring).
+
+Everything random comes from the agent's seeded RNG, so an episode's plan is reproducible.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+import weakref
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium
+import numpy as np
+from kinder_core import ObjectCentricEnv, ObjectCentricState
+from kinder_gym.concepts import GroundAtom
+from kinder_gym.model import PlanningModel
+from kinder_gym.operators import GroundOperator
+from kinder_gym.models import create_model
+from kinder_gym.skills import SkillFailure, execute_skill
+from numpy.typing import NDArray
+
+from kinder_bench.agents.base import Agent, AgentFailure
+from kinder_bench.baselines.bilevel_search import (
+    HFF,
+    SEARCH_ALGORITHMS,
+    AbstractPlan,
+    abstract_plans,
+)
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclasses.dataclass(frozen=True)
+class BilevelPlanningArgs:
+    """Arguments of the bilevel planning baseline (defaults: the paper's configuration)."""
+
+    search: str = "astar"
+    """Abstract search: ``astar`` (priority g + hFF; upstream code) or ``gbfs`` (priority hFF)."""
+    max_abstract_plans: int = 10
+    """Abstract plans refined before giving up (also: expansions allowed per abstract state)."""
+    samples_per_step: int = 3
+    """Parameter samples tried per plan step before backtracking."""
+    max_skill_horizon: int = 0
+    """Most env steps per skill execution; 0: the env model's own default."""
+    planning_timeout: float = 60.0
+    """Wall-clock seconds for one planning call (abstract search and refinement together)."""
+    replan_on_divergence: bool = True
+    """Plan again when the observed state is not the state the next action was planned from."""
+    divergence_atol: float = 1e-6
+    """Absolute tolerance on every feature when comparing observed and planned states."""
+    max_replans: int = 5
+    """Planning calls per episode after the first (divergence or plan exhausted)."""
+
+    def __post_init__(self) -> None:
+        checks = [
+            (self.search in SEARCH_ALGORITHMS, f"search must be one of {SEARCH_ALGORITHMS}"),
+            (self.max_abstract_plans >= 1, "max_abstract_plans must be >= 1"),
+            (self.samples_per_step >= 1, "samples_per_step must be >= 1"),
+            (self.max_skill_horizon >= 0, "max_skill_horizon must be >= 0"),
+            (self.planning_timeout > 0, "planning_timeout must be > 0"),
+            (self.divergence_atol >= 0, "divergence_atol must be >= 0"),
+            (self.max_replans >= 0, "max_replans must be >= 0"),
+        ]
+        for ok, msg in checks:
+            if not ok:
+                raise ValueError(f"BilevelPlanningArgs: {msg}, got {self}")
+
+
+@dataclasses.dataclass
+class RefinedPlan:
+    """A refined plan: ``states[t]`` is the state ``actions[t]`` is taken in
+    (``len(states) == len(actions) + 1``), and the abstract plan it refines."""
+
+    states: list[ObjectCentricState]
+    actions: list[FloatArray]
+    abstract_plan: AbstractPlan
+    skills: list[tuple[str, FloatArray, int]]
+    """Per executed skill: (ground operator name, parameters, number of actions)."""
+
+
+@dataclasses.dataclass
+class PlanningStats:
+    """Counters of one planning call (for analysis and tests)."""
+
+    abstract_plans: int = 0
+    skill_samples: int = 0
+    skill_failures: int = 0
+    abstract_mismatches: int = 0
+    model_steps: int = 0
+    time: float = 0.0
+    timed_out: bool = False
+
+
+class _Timeout(Exception):
+    pass
+
+
+class BilevelPlanner:
+    """Search-then-sample over a :class:`~kinder_gym.model.PlanningModel` (module docstring)."""
+
+    def __init__(self, model: PlanningModel, args: BilevelPlanningArgs) -> None:
+        self.model = model
+        self.args = args
+        self.horizon = args.max_skill_horizon or model.max_skill_horizon
+        self.stats = PlanningStats()
+
+    def plan(self, x0: ObjectCentricState, rng: np.random.Generator) -> RefinedPlan | None:
+        """A refined plan from ``x0``, or None when none was found in time."""
+        self.stats = PlanningStats()
+        start = time.perf_counter()
+        deadline = start + self.args.planning_timeout
+        try:
+            return self._plan(x0, rng, deadline)
+        finally:
+            self.stats.time = time.perf_counter() - start
+
+    def _plan(
+        self, x0: ObjectCentricState, rng: np.random.Generator, deadline: float
+    ) -> RefinedPlan | None:
+        model, args = self.model, self.args
+        s0 = model.abstract(x0)
+        goal = model.goal(x0)
+        ops = model.ground_operators(x0)
+        heuristic = HFF(ops, goal, s0)
+        plans = abstract_plans(
+            s0, goal, ops, rng, args.search, args.max_abstract_plans, deadline, heuristic=heuristic
+        )
+        for plan in plans:
+            self.stats.abstract_plans += 1
+            try:
+                refined = self._refine(plan, x0, rng, deadline)
+            except _Timeout:
+                self.stats.timed_out = True
+                return None
+            if refined is not None:
+                return refined
+            if self.stats.abstract_plans >= args.max_abstract_plans:
+                break
+        if time.perf_counter() > deadline:
+            self.stats.timed_out = True
+        return None
+
+    def _refine(
+        self,
+        plan: AbstractPlan,
+        x0: ObjectCentricState,
+        rng: np.random.Generator,
+        deadline: float,
+    ) -> RefinedPlan | None:
+        states: list[ObjectCentricState] = [x0]
+        actions: list[FloatArray] = []
+        skills: list[tuple[str, FloatArray, int]] = []
+        ops = list(plan.operators)
+        if not ops:
+            return RefinedPlan(states, actions, plan, skills) if self.model.env.goal_reached(
+                x0
+            ) else None
+        if self._refine_from(ops, plan.states[0], x0, rng, deadline, states, actions, skills):
+            return RefinedPlan(states, actions, plan, skills)
+        return None
+
+    def _accept(
+        self, reached: frozenset[GroundAtom], expected: frozenset[GroundAtom]
+    ) -> bool:
+        """Exact match, or extra atoms of the model's monotone predicates only."""
+        if reached == expected:
+            return True
+        monotone = self.model.monotone_predicates
+        return bool(monotone) and expected <= reached and all(
+            a.predicate.name in monotone for a in reached - expected
+        )
+
+    def _refine_from(
+        self,
+        ops: list[GroundOperator],
+        atoms: frozenset[GroundAtom],
+        x: ObjectCentricState,
+        rng: np.random.Generator,
+        deadline: float,
+        states: list[ObjectCentricState],
+        actions: list[FloatArray],
+        skills: list[tuple[str, FloatArray, int]],
+    ) -> bool:
+        """Depth-first refinement of ``ops`` from ``x`` (abstracting to ``atoms``); appends the
+        segments on success."""
+        model = self.model
+        op = ops[0]
+        expected = op.apply(atoms)
+        gs = model.skill(op)
+        deterministic = gs.controller.params_space.shape == (0,)
+        for _ in range(1 if deterministic else self.args.samples_per_step):
+            if time.perf_counter() > deadline:
+                raise _Timeout
+            gs = model.skill(op)  # a fresh controller per sample
+            self.stats.skill_samples += 1
+            try:
+                params = gs.controller.sample_parameters(x, rng)
+                rollout = execute_skill(
+                    gs.controller, x, params, model.env.transition, self.horizon,
+                    deadline=deadline,
+                )
+            except SkillFailure:
+                self.stats.skill_failures += 1
+                continue
+            self.stats.model_steps += len(rollout.actions)
+            if rollout.timed_out:
+                raise _Timeout
+            x_next = rollout.states[-1]
+            done = rollout.terminated
+            rest: list[GroundOperator] = []
+            reached = expected
+            if not done:
+                reached = model.abstract(x_next)
+                if not self._accept(reached, expected):
+                    self.stats.abstract_mismatches += 1
+                    continue
+                # Steps whose effects already hold (monotone atoms achieved early) are skipped.
+                rest = _drop_noops(ops[1:], reached)
+                if not rest and not model.env.goal_reached(x_next):
+                    continue
+                done = not rest
+            n_states, n_actions, n_skills = len(states), len(actions), len(skills)
+            states.extend(rollout.states[1:])
+            actions.extend(rollout.actions)
+            skills.append((op.name, np.asarray(params, dtype=np.float64), len(rollout.actions)))
+            if done or self._refine_from(
+                rest, reached, x_next, rng, deadline, states, actions, skills
+            ):
+                return True
+            del states[n_states:], actions[n_actions:], skills[n_skills:]
+        return False
+
+
+def _drop_noops(
+    ops: Sequence[GroundOperator], atoms: frozenset[GroundAtom]
+) -> list[GroundOperator]:
+    """``ops`` without the steps that would not change the abstract state where they occur."""
+    out = []
+    for o in ops:
+        nxt = o.apply(atoms)
+        if nxt != atoms:
+            out.append(o)
+            atoms = nxt
+    return out
+
+
+# One model per env instance: building one can be costly and the runner reuses envs.
+_MODELS: weakref.WeakKeyDictionary[ObjectCentricEnv, PlanningModel] = weakref.WeakKeyDictionary()
+
+
+def model_for(env: ObjectCentricEnv) -> PlanningModel:
+    """The (cached) planning model of an env."""
+    model = _MODELS.get(env)
+    if model is None:
+        model = create_model(env)
+        _MODELS[env] = model
+    return model
+
+
+class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
+    """Bilevel planning with execution monitoring (see the module docstring)."""
+
+    name = "bilevel_planning"
+    Args = BilevelPlanningArgs
+
+    def __init__(self, env: gymnasium.Env[Any, Any], args: BilevelPlanningArgs, seed: int) -> None:
+        super().__init__(env, args, seed)
+        self.planning_model = model_for(self.model)
+        self.planner = BilevelPlanner(self.planning_model, args)
+        self._plan: RefinedPlan | None = None
+        self._t = 0
+        self.replans = 0
+        self.history: list[PlanningStats] = []
+
+    def reset(self, obs: Any, info: dict[str, Any]) -> None:
+        self.replans = 0
+        self.history = []
+        self._replan(self.observed_state(obs), first=True)
+
+    def _replan(self, state: ObjectCentricState, first: bool = False) -> None:
+        if not first:
+            if self.replans >= self.args.max_replans:
+                raise AgentFailure(
+                    f"{self.name}: plan diverged or ran out and the re-planning budget "
+                    f"({self.args.max_replans}) is spent"
+                )
+            self.replans += 1
+        plan = self.planner.plan(state, self.rng)
+        self.history.append(self.planner.stats)
+        if plan is None:
+            s = self.planner.stats
+            raise AgentFailure(
+                f"{self.name}: no plan found ({s.abstract_plans} abstract plan(s), "
+                f"{s.skill_samples} skill samples, {s.time:.1f} s"
+                f"{', timed out' if s.timed_out else ''})"
+            )
+        self._plan = plan
+        self._t = 0
+
+    def act(self, obs: Any) -> FloatArray:
+        if self._plan is None:
+            raise AgentFailure(f"{self.name}: act() before reset()")
+        state = self.observed_state(obs)
+        plan = self._plan
+        if self._t >= len(plan.actions):
+            self._replan(state)
+        elif self.args.replan_on_divergence and not _close(
+            state, plan.states[self._t], self.args.divergence_atol
+        ):
+            self._replan(state)
+        plan = self._plan
+        if not plan.actions:
+            raise AgentFailure(f"{self.name}: the plan from this state is empty")
+        action = plan.actions[self._t]
+        self._t += 1
+        return self.clip(action)
+
+    @property
+    def plan_(self) -> RefinedPlan | None:
+        """The plan being executed."""
+        return self._plan
+
+
+def _close(a: ObjectCentricState, b: ObjectCentricState, atol: float) -> bool:
+    if a.objects != b.objects:
+        return False
+    return bool(np.all(np.abs(a.data - b.data) <= atol))
+
+
+def plan_episode(
+    env: ObjectCentricEnv,
+    state: ObjectCentricState,
+    args: BilevelPlanningArgs | None = None,
+    seed: int = 0,
+) -> tuple[RefinedPlan | None, PlanningStats]:
+    """Plan once from ``state`` on ``env``'s model (a convenience for scripts and tests)."""
+    planner = BilevelPlanner(model_for(env), args or BilevelPlanningArgs())
+    plan = planner.plan(state, np.random.default_rng(seed))
+    return plan, planner.stats
+
+
+__all__: Sequence[str] = [
+    "BilevelPlanner",
+    "BilevelPlanningAgent",
+    "BilevelPlanningArgs",
+    "PlanningStats",
+    "RefinedPlan",
+    "model_for",
+    "plan_episode",
+]

@@ -1,0 +1,338 @@
+"""The ``kinder`` command line: list and show envs, roll out agents, run and report benchmarks."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Annotated, Any, NoReturn
+
+import numpy as np
+import typer
+
+from kinder_bench.agents import AGENTS, agent_class, describe_args
+from kinder_bench.executors import EXECUTORS
+from kinder_bench.recording import VIDEO_FORMATS
+
+app = typer.Typer(
+    name="kinder",
+    help="KinDER: physical-reasoning environments and the KinDERBench evaluation runner.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+bench_app = typer.Typer(help="Run benchmarks and report their results.", no_args_is_help=True)
+app.add_typer(bench_app, name="bench")
+
+ImportOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--import",
+        help="Module to import first (and in every worker), e.g. one that registers extra envs "
+        "or agents. Repeatable.",
+    ),
+]
+ArgOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--arg",
+        help="Agent argument KEY=VALUE (AGENT.KEY=VALUE to target one agent); see `kinder "
+        "agents`. Repeatable.",
+    ),
+]
+
+
+def fail(message: str) -> NoReturn:
+    """Print an error to stderr and exit with status 2."""
+    typer.secho(f"Error: {message}", fg=typer.colors.RED, err=True)
+    raise typer.Exit(2)
+
+
+@contextlib.contextmanager
+def user_errors() -> Iterator[None]:
+    """Turn the errors a user can fix into a one-line message instead of a traceback."""
+    try:
+        yield
+    except (ValueError, ModuleNotFoundError, FileNotFoundError, ImportError) as e:
+        fail(str(e))
+
+
+def _import(modules: list[str] | None) -> tuple[str, ...]:
+    from kinder_bench.runner import import_modules
+
+    mods = tuple(modules or ())
+    with user_errors():
+        import_modules(mods)
+    return mods
+
+
+def parse_seeds(text: str) -> tuple[int, ...]:
+    """``"0-4"`` → (0, 1, 2, 3, 4); ``"0,2,7"`` → (0, 2, 7); ranges and lists combine."""
+    seeds: list[int] = []
+    try:
+        for part in filter(None, (p.strip() for p in text.split(","))):
+            lo, sep, hi = part.partition("-")
+            if sep and int(hi) < int(lo):
+                raise ValueError(part)
+            seeds += range(int(lo), int(hi) + 1) if sep else [int(part)]
+    except ValueError:
+        fail(f"--seeds: cannot parse {text!r}; expected non-negative seeds like '0-4' or '0,1,2'")
+    if not seeds:
+        fail(f"--seeds: no seeds in {text!r}")
+    return tuple(dict.fromkeys(seeds))
+
+
+def parse_agent_args(items: list[str] | None, agents: list[str]) -> dict[str, dict[str, str]]:
+    """``KEY=VALUE`` applies to every listed agent that has KEY; ``AGENT.KEY=VALUE`` to one."""
+    out: dict[str, dict[str, str]] = {a: {} for a in agents}
+    fields: dict[str, set[str]] = {}
+    for a in agents:
+        with user_errors():
+            fields[a] = {name for name, *_ in describe_args(agent_class(a))}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            fail(f"--arg {item!r}: expected KEY=VALUE or AGENT.KEY=VALUE")
+        agent, dot, name = key.rpartition(".")
+        if dot and agent in out:
+            targets = [agent]
+        elif dot:
+            fail(f"--arg {item!r}: agent {agent!r} is not among the agents {agents}")
+        else:
+            name = key
+            targets = [a for a in agents if name in fields[a]]
+        targets = [a for a in targets if name in fields[a]]
+        if not targets:
+            known = {a: sorted(f) for a, f in fields.items()}
+            fail(f"--arg {item!r}: no agent here has an argument {name!r}; arguments: {known}")
+        for a in targets:
+            out[a][name] = value
+    return out
+
+
+@app.command()
+def envs(
+    category: Annotated[
+        str | None,
+        typer.Option("--category", "-c", help="Kinematic2D, Dynamic2D, Kinematic3D or Dynamic3D."),
+    ] = None,
+    imports: ImportOpt = None,
+) -> None:
+    """List the registered environment ids (of the installed packages)."""
+    import gymnasium
+
+    from kinder_bench.envs import known_env_ids
+
+    _import(imports)
+    with user_errors():
+        if category is not None:
+            import kinder_core
+
+            ids = kinder_core.list_envs(category)
+        else:
+            ids = known_env_ids()
+    if not ids:
+        typer.echo("No environments registered" + (f" in {category}" if category else "") + ".")
+        return
+    width = max(len(i) for i in ids)
+    for env_id in ids:
+        steps = gymnasium.spec(env_id).max_episode_steps
+        typer.echo(f"{env_id:<{width}}  max_steps={steps}")
+
+
+@app.command()
+def agents() -> None:
+    """List the agents and their arguments (defaults and meaning)."""
+    for name in AGENTS:
+        cls = agent_class(name)
+        doc = (cls.__doc__ or "").strip().splitlines()[0]
+        typer.secho(f"{name}", bold=True, nl=False)
+        typer.echo(f"  {doc}")
+        for arg, type_name, default, help_ in describe_args(cls):
+            typer.echo(f"    {arg}: {type_name} = {default!r}  {help_}")
+
+
+@app.command()
+def show(
+    env_id: Annotated[str, typer.Argument(help="Environment id, e.g. kinder/Motion2D-p0-v0.")],
+    seed: Annotated[int, typer.Option(help="Seed of env.reset.")] = 0,
+    out: Annotated[Path | None, typer.Option(help="Write the initial state's image (PNG).")] = None,
+    imports: ImportOpt = None,
+) -> None:
+    """Describe an environment and print a seeded initial state (optionally save its image)."""
+    from kinder_bench.envs import default_max_steps, make_env, resolve_env_id
+
+    _import(imports)
+    with user_errors():
+        env_id = resolve_env_id(env_id)
+        env = make_env(env_id)
+    env.reset(seed=seed)
+    model: Any = env.unwrapped
+    meta = env.unwrapped.metadata
+    typer.secho(env_id, bold=True)
+    description = str(meta.get("description", "")).strip()
+    if description:
+        typer.echo(description)
+    typer.echo(
+        f"observation: Box{tuple(env.observation_space.shape or ())}   action: "
+        f"{env.action_space}   max_steps: {default_max_steps(env_id)}"
+    )
+    typer.echo(f"initial state (seed {seed}):")
+    typer.echo(model.get_state().pretty())
+    if out is not None:
+        import imageio.v2 as imageio
+
+        frame = np.asarray(env.render())
+        out.parent.mkdir(parents=True, exist_ok=True)
+        imageio.imwrite(out, frame)
+        typer.echo(f"wrote {out}")
+    env.close()
+
+
+@app.command()
+def rollout(
+    env_id: Annotated[str, typer.Argument(help="Environment id, e.g. kinder/Motion2D-p0-v0.")],
+    agent: Annotated[str, typer.Option(help="Agent name (see `kinder agents`).")] = "random",
+    args: ArgOpt = None,
+    seed: Annotated[int, typer.Option(help="Run seed: the episode is episode 0 of this seed.")] = 0,
+    max_steps: Annotated[int | None, typer.Option(help="Step budget (default: the env's).")] = None,
+    gif: Annotated[Path | None, typer.Option(help="Record the episode (.gif or .mp4).")] = None,
+    imports: ImportOpt = None,
+) -> None:
+    """Run one episode of an agent and print its result."""
+    from kinder_bench.runner import RunConfig, make_tasks, resolve_run, run_episode
+
+    mods = _import(imports)
+    agent_args = parse_agent_args(args, [agent])[agent]
+    with user_errors():
+        run = resolve_run(RunConfig(env_id, agent, agent_args, (seed,), 1, max_steps))
+    task = make_tasks(run, imports=mods)[0]
+    if gif is not None:
+        task = type(task)(**{**task.__dict__, "video_path": str(gif)})
+    rec = run_episode(task)
+    status = "success" if rec["success"] else "failure"
+    typer.echo(
+        f"{run.env_id}  agent={agent}  seed={seed} (env seed {rec['env_seed']}): {status} in "
+        f"{rec['steps']} steps, reward {rec['reward']:.1f}, inference {rec['inference_time']:.3f}"
+        f" s, env {rec['env_time']:.3f} s"
+    )
+    if rec["error"]:
+        typer.secho(
+            f"episode error ({rec['error_in']}): {rec['error']}", fg=typer.colors.RED, err=True
+        )
+    if rec.get("video_error"):
+        fail(rec["video_error"])
+    if rec["video"]:
+        typer.echo(f"wrote {rec['video']}")
+
+
+@bench_app.command("run")
+def bench_run(
+    env: Annotated[list[str], typer.Option("--env", "-e", help="Environment id. Repeatable.")],
+    agent: Annotated[
+        list[str] | None, typer.Option("--agent", "-a", help="Agent name. Repeatable.")
+    ] = None,
+    args: ArgOpt = None,
+    seeds: Annotated[str, typer.Option(help="Run seeds: '0-4' or '0,1,2'.")] = "0-4",
+    episodes: Annotated[int, typer.Option(help="Episodes per seed.")] = 50,
+    max_steps: Annotated[
+        int | None, typer.Option(help="Step budget per episode (default: the env's).")
+    ] = None,
+    out: Annotated[Path, typer.Option(help="Run directory (reruns resume it).")] = Path(
+        "runs/bench"
+    ),
+    executor: Annotated[str, typer.Option(help=f"One of {', '.join(EXECUTORS)}.")] = "process",
+    workers: Annotated[
+        int | None, typer.Option(help="Worker processes / local Ray CPUs (default: all CPUs).")
+    ] = None,
+    address: Annotated[
+        str | None, typer.Option(help="Ray cluster address (with --executor ray).")
+    ] = None,
+    record: Annotated[
+        str | None, typer.Option(help=f"Record episodes as {' or '.join(VIDEO_FORMATS)}.")
+    ] = None,
+    record_episodes: Annotated[
+        int, typer.Option(help="Record the first N episodes of each seed (-1: all).")
+    ] = 1,
+    progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
+    report: Annotated[bool, typer.Option(help="Write and print the report at the end.")] = True,
+    imports: ImportOpt = None,
+) -> None:
+    """Run every agent on every env over the seeds (resuming what the run directory has)."""
+    from kinder_bench.runner import RunConfig, run_benchmark
+
+    mods = _import(imports)
+    agents_ = agent or ["random"]
+    if executor not in EXECUTORS:
+        fail(f"--executor {executor!r}: expected one of {list(EXECUTORS)}")
+    per_agent = parse_agent_args(args, agents_)
+    seed_list = parse_seeds(seeds)
+    runs = [
+        RunConfig(e, a, per_agent[a], seed_list, episodes, max_steps) for e in env for a in agents_
+    ]
+    with user_errors():
+        outcome = run_benchmark(
+            runs,
+            out,
+            executor=executor,
+            workers=workers,
+            address=address,
+            record=record,
+            record_episodes=None if record_episodes < 0 else record_episodes,
+            imports=mods,
+            progress=progress,
+        )
+    typer.echo(
+        f"{out}: ran {outcome.num_ran} episodes, skipped {outcome.num_skipped} already done",
+        err=True,
+    )
+    if report:
+        _report([out], out, plot=True)
+
+
+def _report(run_dirs: list[Path], out: Path | None, plot: bool) -> None:
+    from kinder_bench.report import write_report
+
+    with user_errors():
+        md, paths = write_report(run_dirs, out, plot=plot)
+    typer.echo(md)
+    typer.echo("wrote " + ", ".join(str(p) for p in paths.values()), err=True)
+
+
+@bench_app.command("report")
+def bench_report(
+    run_dirs: Annotated[list[Path], typer.Argument(help="Run directories to aggregate.")],
+    out: Annotated[
+        Path | None, typer.Option(help="Where to write the report (default: the first run dir).")
+    ] = None,
+    plot: Annotated[bool, typer.Option(help="Also write success.png.")] = True,
+) -> None:
+    """Aggregate run directories: print the SR / Rwd / Inf-Time table, write CSV and a plot."""
+    _report(run_dirs, out, plot)
+
+
+@app.command()
+def demo(
+    out: Annotated[Path, typer.Option(help="Run directory.")] = Path("runs/demo"),
+    workers: Annotated[int, typer.Option(help="Worker processes.")] = 2,
+    progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
+) -> None:
+    """A small benchmark: random and MPC on fast Kinematic2D envs; prints the table, writes GIFs."""
+    from kinder_bench.demo import run_demo
+
+    with user_errors():
+        result = run_demo(out, workers=workers, progress=progress)
+    typer.echo(result.table)
+    for path in result.files:
+        typer.echo(f"wrote {path}")
+    typer.echo(json.dumps({"seconds": round(result.seconds, 1)}), err=True)
+
+
+def main() -> None:
+    """Entry point for ``python -m kinder_bench``."""
+    app(prog_name="kinder")
+
+
+if __name__ == "__main__":
+    main()

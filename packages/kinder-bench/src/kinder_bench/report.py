@@ -1,0 +1,193 @@
+"""Results tables (the paper's SR / Rwd / Inf-Time layout) as markdown and CSV, and a plot."""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from kinder_bench.envs import short_id
+from kinder_bench.metrics import Stat, Summary, aggregate
+from kinder_bench.results import load_records
+
+TABLE_FILE = "table.md"
+CSV_FILE = "summary.csv"
+PLOT_FILE = "success.png"
+
+
+def dedupe(records: Iterable[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
+    """Keep the first record of each (run, seed, episode)."""
+    seen: set[tuple[str, int, int]] = set()
+    out = []
+    for r in records:
+        key = (r["run_id"], r["seed"], r["episode"])
+        if key not in seen:
+            seen.add(key)
+            out.append(r)
+    return out
+
+
+def load_run_dirs(run_dirs: Sequence[Path | str]) -> list[Mapping[str, Any]]:
+    """Every record of the given run directories (duplicates dropped)."""
+    records: list[Mapping[str, Any]] = []
+    for d in run_dirs:
+        if not (Path(d) / "results.jsonl").exists():
+            raise FileNotFoundError(f"{d} is not a run directory (no results.jsonl)")
+        records += load_records(d)
+    return dedupe(records)
+
+
+def _fmt(stat: Stat, digits: int) -> str:
+    if stat.mean is None:
+        return "--"
+    text = f"{stat.mean:.{digits}f}"
+    if stat.std is not None:
+        text += f" ± {stat.std:.{digits}f}"
+    return text
+
+
+def _time_digits(stat: Stat) -> int:
+    return 3 if stat.mean is not None and abs(stat.mean) < 0.1 else 2
+
+
+def markdown_table(summaries: Sequence[Summary]) -> str:
+    """The paper's layout: one column per method; per env, rows SR ↑, Rwd ↑, Inf-Time ↓
+    (mean ± std across seeds; the best SR per env in bold)."""
+    methods = list(dict.fromkeys(s.method for s in summaries))
+    envs = list(dict.fromkeys(s.env_id for s in summaries))
+    cell = {(s.env_id, s.method): s for s in summaries}
+    lines = [
+        "| Env | Metric | " + " | ".join(methods) + " |",
+        "|---|---|" + "---|" * len(methods),
+    ]
+    for env in envs:
+        present = [cell[(env, m)] for m in methods if (env, m) in cell]
+        best = max((s.success.mean or 0.0 for s in present), default=0.0)
+        rows: list[tuple[str, list[str]]] = [("SR ↑", []), ("Rwd ↑", []), ("Inf-Time (s) ↓", [])]
+        for m in methods:
+            s = cell.get((env, m))
+            if s is None:
+                for _, row in rows:
+                    row.append("")
+                continue
+            sr = _fmt(s.success, 2)
+            if s.success.mean is not None and s.success.mean == best and best > 0:
+                sr = f"**{sr}**"
+            rows[0][1].append(sr)
+            rows[1][1].append(_fmt(s.reward, 1))
+            rows[2][1].append(_fmt(s.inference_time, _time_digits(s.inference_time)))
+        for i, (name, row) in enumerate(rows):
+            label = short_id(env) if i == 0 else ""
+            lines.append(f"| {label} | {name} | " + " | ".join(row) + " |")
+    return "\n".join(lines) + "\n"
+
+
+CSV_COLUMNS = (
+    "env_id",
+    "method",
+    "agent",
+    "run_id",
+    "max_steps",
+    "num_seeds",
+    "episodes",
+    "errors",
+    "sr_mean",
+    "sr_std",
+    "rwd_mean",
+    "rwd_std",
+    "rwd_seeds",
+    "inf_time_mean",
+    "inf_time_std",
+    "steps_mean",
+    "steps_std",
+    "env_time_mean",
+    "env_time_std",
+)
+
+
+def csv_table(summaries: Sequence[Summary]) -> str:
+    """One row per env × method (empty cells where a value is undefined)."""
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(CSV_COLUMNS)
+
+    def v(x: float | None) -> str:
+        return "" if x is None else repr(x)
+
+    for s in summaries:
+        writer.writerow(
+            [
+                s.env_id,
+                s.method,
+                s.agent,
+                s.run_id,
+                s.max_steps,
+                s.num_seeds,
+                s.episodes,
+                s.errors,
+                v(s.success.mean),
+                v(s.success.std),
+                v(s.reward.mean),
+                v(s.reward.std),
+                s.reward.n,
+                v(s.inference_time.mean),
+                v(s.inference_time.std),
+                v(s.steps.mean),
+                v(s.steps.std),
+                v(s.env_time.mean),
+                v(s.env_time.std),
+            ]
+        )
+    return buf.getvalue()
+
+
+def plot_success(summaries: Sequence[Summary], path: Path | str) -> Path:
+    """A grouped bar chart of success rates per env and method, with ±std error bars."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    methods = list(dict.fromkeys(s.method for s in summaries))
+    envs = list(dict.fromkeys(s.env_id for s in summaries))
+    cell = {(s.env_id, s.method): s for s in summaries}
+    x = np.arange(len(envs))
+    width = 0.8 / max(1, len(methods))
+    fig, ax = plt.subplots(figsize=(max(4.0, 1.6 * len(envs) * max(1, len(methods)) ** 0.5), 3.2))
+    for i, m in enumerate(methods):
+        means = [np.nan if (e, m) not in cell else (cell[(e, m)].success.mean or 0.0) for e in envs]
+        errs = [(cell[(e, m)].success.std or 0.0) if (e, m) in cell else 0.0 for e in envs]
+        ax.bar(
+            x + (i - (len(methods) - 1) / 2) * width, means, width, yerr=errs, capsize=3, label=m
+        )
+    ax.set_xticks(x, [short_id(e) for e in envs], rotation=20, ha="right")
+    ax.set_ylim(0, 1.05)
+    ax.set_ylabel("success rate")
+    ax.legend(fontsize="small", ncols=min(4, len(methods)))
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def write_report(
+    run_dirs: Sequence[Path | str], out_dir: Path | str | None = None, plot: bool = True
+) -> tuple[str, dict[str, Path]]:
+    """Aggregate run directories; write ``table.md``, ``summary.csv`` and ``success.png`` to
+    ``out_dir`` (default: the first run directory). Returns the markdown and the paths."""
+    summaries = aggregate(load_run_dirs(run_dirs))
+    if not summaries:
+        raise ValueError(f"No results in {[str(d) for d in run_dirs]}")
+    out = Path(out_dir if out_dir is not None else run_dirs[0])
+    out.mkdir(parents=True, exist_ok=True)
+    md = markdown_table(summaries)
+    paths = {"table": out / TABLE_FILE, "csv": out / CSV_FILE}
+    paths["table"].write_text(md)
+    paths["csv"].write_text(csv_table(summaries))
+    if plot:
+        paths["plot"] = plot_success(summaries, out / PLOT_FILE)
+    return md, paths

@@ -1,0 +1,100 @@
+"""The results file of a run directory: one JSON object per finished episode.
+
+Lines are appended with a single ``write`` on a file opened with ``O_APPEND`` and then synced, so
+a line is either fully there or (after a crash in the middle of the write) a partial last line;
+:func:`load_records` drops such a partial line (its episode is not finished and runs again).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import sys
+import warnings
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+RESULTS_FILE = "results.jsonl"
+CONFIG_FILE = "config.json"
+SCHEMA_VERSION = 1
+
+_VERSIONED = (
+    "kinder-bench",
+    "kinder-core",
+    "kinder-garden2d",
+    "kinder-garden3d",
+    "kinder-gym",
+    "gymnasium",
+    "numpy",
+)
+
+
+def package_versions() -> dict[str, str]:
+    """Versions of Python and of the packages that decide a result."""
+    out = {"python": platform.python_version()}
+    for name in _VERSIONED:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            continue
+    return out
+
+
+def load_records(path: Path | str) -> list[dict[str, Any]]:
+    """The records of a results file (a run directory or the ``.jsonl`` file itself).
+
+    A partial last line (an interrupted write) is removed from the file; a missing file has no
+    records.
+    """
+    path = Path(path)
+    if path.is_dir():
+        path = path / RESULTS_FILE
+    if not path.exists():
+        return []
+    data = path.read_bytes()
+    if data and not data.endswith(b"\n"):
+        keep = data.rfind(b"\n") + 1
+        with open(path, "r+b") as f:
+            f.truncate(keep)
+        data = data[:keep]
+    records = []
+    for n, line in enumerate(data.splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            records.append(json.loads(line))
+        except json.JSONDecodeError:
+            warnings.warn(f"{path}:{n}: skipping a line that is not JSON", stacklevel=2)
+    return records
+
+
+def append_record(path: Path | str, record: dict[str, Any]) -> None:
+    """Append one record as one line, atomically (a single ``O_APPEND`` write) and durably."""
+    line = (json.dumps(record, sort_keys=True, allow_nan=False) + "\n").encode()
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        written = os.write(fd, line)
+        if written != len(line):  # regular files write fully; fail loudly rather than corrupt
+            raise OSError(f"short write to {path}: {written} of {len(line)} bytes")
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def write_json(path: Path | str, obj: Any) -> None:
+    """Write JSON through a temporary file and a rename, so readers never see half a file."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(obj, indent=2, sort_keys=True) + "\n")
+    os.replace(tmp, path)
+
+
+def environment_info() -> dict[str, Any]:
+    """Where a run ran: versions, interpreter and platform."""
+    return {
+        "versions": package_versions(),
+        "executable": sys.executable,
+        "platform": platform.platform(),
+    }

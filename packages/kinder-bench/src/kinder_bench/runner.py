@@ -1,0 +1,395 @@
+"""The evaluation runner: a standard way to run any agent on any env and keep every result.
+
+A run is ``(env id, agent, agent arguments, seeds, episodes per seed, max steps)``
+(:class:`RunConfig`). Episode ``i`` of seed ``s`` resets the env with the ``i``-th draw of
+``numpy.random.default_rng(s).integers(0, 2**31 - 1)``, so the episode instances depend only on
+the seed and every method sees the same ones. The agent of that episode is seeded from
+``SeedSequence([s, i])``; an episode therefore depends on nothing else, which makes results
+independent of the executor, of the order episodes finish in, and of resuming.
+
+Every finished episode is appended as one JSON line to ``<run_dir>/results.jsonl`` (see the README
+for the schema) and ``<run_dir>/config.json`` records the runs and the package versions. Running
+again with the same run directory skips the episodes already there. An exception in an episode
+(agent or env) is recorded as a failed episode with its error.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import hashlib
+import importlib
+import json
+import sys
+import time
+import traceback
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import gymnasium
+import numpy as np
+
+from kinder_bench.agents import agent_class, args_to_dict, make_agent, make_args
+from kinder_bench.envs import default_max_steps, make_env, resolve_env_id, short_id
+from kinder_bench.executors import execute
+from kinder_bench.recording import VIDEO_FORMATS, write_video
+from kinder_bench.results import (
+    CONFIG_FILE,
+    RESULTS_FILE,
+    SCHEMA_VERSION,
+    append_record,
+    environment_info,
+    load_records,
+    package_versions,
+    write_json,
+)
+
+#: Fields that are wall-clock measurements (everything else in a record is deterministic).
+TIMING_FIELDS = ("inference_time", "env_time", "finished_at")
+
+
+@dataclasses.dataclass(frozen=True)
+class RunConfig:
+    """One evaluation run: an agent with fixed arguments on one env, over several seeds."""
+
+    env_id: str
+    """A registered id (``kinder/Motion2D-p0-v0``; ``Motion2D-p0`` is accepted)."""
+    agent: str = "random"
+    """An agent name (``random``, ``mpc``, ...) or a ``module:Class`` entry point."""
+    agent_args: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    """Overrides of the agent's ``Args`` defaults."""
+    seeds: tuple[int, ...] = (0, 1, 2, 3, 4)
+    """Run seeds; each fixes its episodes' instances (the paper: 5 seeds)."""
+    episodes: int = 50
+    """Episodes per seed (the paper: 50)."""
+    max_steps: int | None = None
+    """Step budget per episode; None: the env's registered ``max_episode_steps``."""
+    label: str | None = None
+    """The method's name in reports; None: the agent name."""
+
+
+@dataclasses.dataclass(frozen=True)
+class EpisodeTask:
+    """Everything one episode needs (picklable: it travels to worker processes)."""
+
+    run_id: str
+    env_id: str
+    agent: str
+    agent_args: dict[str, Any]
+    label: str
+    max_steps: int
+    seed: int
+    episode: int
+    env_seed: int
+    agent_seed: int
+    video_path: str | None = None
+    imports: tuple[str, ...] = ()
+
+    @property
+    def key(self) -> tuple[str, int, int]:
+        return (self.run_id, self.seed, self.episode)
+
+
+@dataclasses.dataclass
+class BenchOutcome:
+    """What :func:`run_benchmark` did."""
+
+    run_dir: Path
+    records: list[dict[str, Any]]
+    """Every record of the run directory's runs (old and new), sorted."""
+    num_ran: int
+    num_skipped: int
+
+
+def episode_seeds(seed: int, episodes: int) -> list[int]:
+    """The env seeds of a run seed's episodes (one draw each from ``default_rng(seed)``)."""
+    rng = np.random.default_rng(seed)
+    return [int(rng.integers(0, 2**31 - 1)) for _ in range(episodes)]
+
+
+def agent_seed(seed: int, episode: int) -> int:
+    """The agent's seed in episode ``episode`` of run seed ``seed``."""
+    return int(np.random.SeedSequence([seed, episode]).generate_state(1)[0])
+
+
+def run_id(env_id: str, agent: str, agent_args: Mapping[str, Any], max_steps: int) -> str:
+    """A short stable hash of what determines a run's results (not its seeds or label)."""
+    blob = json.dumps([env_id, agent, dict(agent_args), max_steps], sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()[:12]
+
+
+def import_modules(modules: Sequence[str]) -> None:
+    """Import modules that register extra envs or agents (``--import``)."""
+    for m in modules:
+        importlib.import_module(m)
+
+
+@dataclasses.dataclass(frozen=True)
+class ResolvedRun:
+    """A :class:`RunConfig` with the id resolved and every default filled in."""
+
+    run_id: str
+    env_id: str
+    agent: str
+    agent_args: dict[str, Any]
+    label: str
+    seeds: tuple[int, ...]
+    episodes: int
+    max_steps: int
+
+
+def resolve_run(config: RunConfig) -> ResolvedRun:
+    """Resolve the env id, the agent's full arguments and the step budget (errors early)."""
+    env_id = resolve_env_id(config.env_id)
+    cls = agent_class(config.agent)
+    args = args_to_dict(make_args(cls, config.agent_args))
+    max_steps = config.max_steps if config.max_steps is not None else default_max_steps(env_id)
+    if max_steps <= 0 or config.episodes <= 0 or not config.seeds:
+        raise ValueError(
+            f"A run needs max_steps > 0, episodes > 0 and at least one seed; got {config}"
+        )
+    return ResolvedRun(
+        run_id=run_id(env_id, config.agent, args, max_steps),
+        env_id=env_id,
+        agent=config.agent,
+        agent_args=args,
+        label=config.label or config.agent,
+        seeds=tuple(int(s) for s in config.seeds),
+        episodes=int(config.episodes),
+        max_steps=int(max_steps),
+    )
+
+
+def make_tasks(
+    run: ResolvedRun,
+    video_dir: Path | None = None,
+    record: str | None = None,
+    record_episodes: int | None = None,
+    imports: tuple[str, ...] = (),
+) -> list[EpisodeTask]:
+    """The episodes of a run (recording the first ``record_episodes`` of each seed, or all)."""
+    tasks = []
+    for seed in run.seeds:
+        for i, env_seed in enumerate(episode_seeds(seed, run.episodes)):
+            video = None
+            wanted = record_episodes is None or i < record_episodes
+            if record and video_dir is not None and wanted:
+                stem = f"{short_id(run.env_id)}__{run.label}__{run.run_id[:6]}"
+                video = str(video_dir / f"{stem}__s{seed}_e{i}.{record}")
+            tasks.append(
+                EpisodeTask(
+                    run_id=run.run_id,
+                    env_id=run.env_id,
+                    agent=run.agent,
+                    agent_args=run.agent_args,
+                    label=run.label,
+                    max_steps=run.max_steps,
+                    seed=seed,
+                    episode=i,
+                    env_seed=env_seed,
+                    agent_seed=agent_seed(seed, i),
+                    video_path=video,
+                    imports=imports,
+                )
+            )
+    return tasks
+
+
+# Envs are reused across the episodes a process runs (``reset(seed=...)`` fully re-seeds them).
+_ENV_CACHE: dict[tuple[str, int], gymnasium.Env[Any, Any]] = {}
+
+
+def _env_for(env_id: str, max_steps: int) -> gymnasium.Env[Any, Any]:
+    key = (env_id, max_steps)
+    if key not in _ENV_CACHE:
+        _ENV_CACHE[key] = make_env(env_id, max_steps=max_steps, render_mode="rgb_array")
+    return _ENV_CACHE[key]
+
+
+def run_episode(task: EpisodeTask) -> dict[str, Any]:
+    """Run one episode and return its record; never raises for errors inside the episode."""
+    record: dict[str, Any] = {
+        "schema": SCHEMA_VERSION,
+        "run_id": task.run_id,
+        "env_id": task.env_id,
+        "agent": task.agent,
+        "agent_args": task.agent_args,
+        "label": task.label,
+        "max_steps": task.max_steps,
+        "seed": task.seed,
+        "episode": task.episode,
+        "env_seed": task.env_seed,
+        "agent_seed": task.agent_seed,
+    }
+    success, reward, steps = False, 0.0, 0
+    inference_time = env_time = 0.0
+    error: str | None = None
+    error_in: str | None = None
+    trace: str | None = None
+    frames: list[Any] | None = [] if task.video_path else None
+    phase = "setup"
+    try:
+        import_modules(task.imports)
+        env = _env_for(task.env_id, task.max_steps)
+        phase = "agent"
+        agent = make_agent(task.agent, env, task.agent_args, seed=task.agent_seed)
+        phase = "env"
+        t0 = time.perf_counter()
+        obs, info = env.reset(seed=task.env_seed)
+        env_time += time.perf_counter() - t0
+        if frames is not None:
+            frames.append(env.render())
+        phase = "agent"
+        t0 = time.perf_counter()
+        agent.reset(obs, info)
+        inference_time += time.perf_counter() - t0
+        while steps < task.max_steps:
+            phase = "agent"
+            t0 = time.perf_counter()
+            action = agent.act(obs)
+            inference_time += time.perf_counter() - t0
+            phase = "env"
+            t0 = time.perf_counter()
+            obs, r, terminated, truncated, info = env.step(action)
+            env_time += time.perf_counter() - t0
+            steps += 1
+            reward += float(r)
+            if frames is not None:
+                frames.append(env.render())
+            if terminated:
+                success = True
+                break
+            if truncated:
+                break
+    except Exception as e:
+        error = f"{type(e).__name__}: {e}"
+        error_in = phase
+        trace = traceback.format_exc()[-4000:]
+    video = None
+    if frames and task.video_path:
+        try:
+            video = str(write_video(task.video_path, frames))
+        except Exception as e:  # a failed video must not lose the episode's result
+            record["video_error"] = f"{type(e).__name__}: {e}"
+    record.update(
+        success=success,
+        reward=reward,
+        steps=steps,
+        inference_time=inference_time,
+        env_time=env_time,
+        error=error,
+        error_in=error_in,
+        traceback=trace,
+        video=video,
+        versions=package_versions(),
+        finished_at=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+    )
+    return record
+
+
+def sort_key(record: Mapping[str, Any]) -> tuple[Any, ...]:
+    """Records in a stable order: by env, label, run, seed, episode."""
+    return (record["env_id"], record["label"], record["run_id"], record["seed"], record["episode"])
+
+
+def _progress(total: int, enabled: bool) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(
+        total=total,
+        desc="episodes",
+        unit="ep",
+        disable=not enabled or total == 0,
+        file=sys.stderr,
+        dynamic_ncols=True,
+    )
+
+
+def run_benchmark(
+    runs: Sequence[RunConfig],
+    run_dir: Path | str,
+    executor: str = "process",
+    workers: int | None = None,
+    address: str | None = None,
+    record: str | None = None,
+    record_episodes: int | None = 1,
+    imports: Sequence[str] = (),
+    progress: bool = True,
+) -> BenchOutcome:
+    """Run (or resume) every episode of ``runs``, appending results to ``run_dir``.
+
+    Args:
+        runs: The runs; their episodes all go to one executor.
+        run_dir: Where ``results.jsonl``, ``config.json`` and ``videos/`` live; episodes already
+            in ``results.jsonl`` are skipped.
+        executor: ``"process"`` (a local process pool), ``"inline"`` or ``"ray"``.
+        workers: Processes (or local Ray CPUs); default: the CPUs available.
+        address: A Ray cluster address (``--executor ray``); default: start a local instance.
+        record: ``"gif"`` or ``"mp4"`` to record episodes to ``run_dir/videos``.
+        record_episodes: Record the first this many episodes of each seed (None: all).
+        imports: Modules imported first, here and in every worker (to register envs or agents).
+        progress: Show a progress bar.
+    """
+    if record is not None and record not in VIDEO_FORMATS:
+        raise ValueError(f"record must be one of {VIDEO_FORMATS} or None, got {record!r}")
+    run_dir = Path(run_dir)
+    imports = tuple(imports)
+    import_modules(imports)
+    resolved = [resolve_run(c) for c in runs]
+    run_dir.mkdir(parents=True, exist_ok=True)
+    results_path = run_dir / RESULTS_FILE
+    existing = load_records(results_path)
+    done = {(r["run_id"], r["seed"], r["episode"]) for r in existing}
+    tasks = [
+        t
+        for run in resolved
+        for t in make_tasks(run, run_dir / "videos", record, record_episodes, imports)
+    ]
+    pending = [t for t in tasks if t.key not in done]
+    _write_config(run_dir, resolved, imports)
+
+    bar = _progress(len(pending), progress)
+    successes = 0
+    new = []
+    try:
+        for rec in execute(run_episode, pending, executor, workers, address):
+            append_record(results_path, rec)
+            new.append(rec)
+            successes += bool(rec["success"])
+            bar.update(1)
+            bar.set_postfix(success=f"{successes}/{len(new)}", refresh=False)
+    finally:
+        bar.close()
+    wanted = {t.key for t in tasks}
+    records = [r for r in existing + new if (r["run_id"], r["seed"], r["episode"]) in wanted]
+    return BenchOutcome(
+        run_dir=run_dir,
+        records=sorted(records, key=sort_key),
+        num_ran=len(new),
+        num_skipped=len(tasks) - len(pending),
+    )
+
+
+def _write_config(run_dir: Path, runs: Sequence[ResolvedRun], imports: tuple[str, ...]) -> None:
+    path = run_dir / CONFIG_FILE
+    merged: dict[str, Any] = {}
+    if path.exists():
+        old = json.loads(path.read_text())
+        merged = {r["run_id"]: r for r in old.get("runs", [])}
+    for run in runs:
+        entry = dataclasses.asdict(run)
+        if run.run_id in merged:  # a rerun may add seeds or episodes to a run
+            old_seeds = merged[run.run_id]["seeds"]
+            entry["seeds"] = sorted({*old_seeds, *run.seeds})
+            entry["episodes"] = max(merged[run.run_id]["episodes"], run.episodes)
+        merged[run.run_id] = entry
+    write_json(
+        path,
+        {
+            "schema": SCHEMA_VERSION,
+            "runs": list(merged.values()),
+            "imports": list(imports),
+            **environment_info(),
+        },
+    )

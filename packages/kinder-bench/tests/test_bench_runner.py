@@ -1,0 +1,193 @@
+"""The runner: episode instances, determinism, resume, crash records, executors, recording."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from kinder_bench.results import CONFIG_FILE, RESULTS_FILE, append_record, load_records
+from kinder_bench.runner import (
+    TIMING_FIELDS,
+    RunConfig,
+    agent_seed,
+    episode_seeds,
+    run_benchmark,
+)
+
+IMPORTS = ("kinder_bench_toy",)
+
+
+def _runs(toy_id: str, seeds: tuple[int, ...] = (0, 1), episodes: int = 3) -> list[RunConfig]:
+    return [
+        RunConfig(toy_id, "random", {}, seeds, episodes),
+        RunConfig(toy_id, "mpc", {"horizon": 15, "num_rollouts": 5}, seeds, episodes),
+    ]
+
+
+def _strip(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Records without wall-clock fields (what must match across runs and executors)."""
+    return [{k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in records]
+
+
+def _bench(runs: list[RunConfig], run_dir: Path, **kw: Any) -> Any:
+    kw.setdefault("executor", "inline")
+    return run_benchmark(runs, run_dir, imports=IMPORTS, progress=False, **kw)
+
+
+def test_episode_seeds_follow_the_protocol() -> None:
+    rng = np.random.default_rng(7)
+    expected = [int(rng.integers(0, 2**31 - 1)) for _ in range(5)]
+    assert episode_seeds(7, 5) == expected
+    assert episode_seeds(7, 3) == expected[:3]  # more episodes extend, never reshuffle
+    assert agent_seed(0, 1) != agent_seed(1, 0)
+
+
+def test_same_instances_for_every_method(toy_id: str, tmp_path: Path) -> None:
+    out = _bench(_runs(toy_id), tmp_path)
+    by_agent: dict[str, list[tuple[int, int, int]]] = {}
+    for r in out.records:
+        by_agent.setdefault(r["agent"], []).append((r["seed"], r["episode"], r["env_seed"]))
+    assert by_agent["random"] == by_agent["mpc"]
+    assert len(by_agent["random"]) == 6
+
+
+def test_results_are_deterministic(toy_id: str, tmp_path: Path) -> None:
+    a = _bench(_runs(toy_id), tmp_path / "a")
+    b = _bench(_runs(toy_id), tmp_path / "b")
+    assert _strip(a.records) == _strip(b.records)
+    assert any(r["success"] for r in a.records)  # MPC solves some: the comparison has content
+    assert not all(r["success"] for r in a.records)
+
+
+def test_records_have_the_schema(toy_id: str, tmp_path: Path) -> None:
+    out = _bench(_runs(toy_id, seeds=(0,), episodes=1), tmp_path)
+    lines = (tmp_path / RESULTS_FILE).read_text().splitlines()
+    assert len(lines) == 2
+    rec = json.loads(lines[1])
+    for key in (
+        "schema",
+        "run_id",
+        "env_id",
+        "agent",
+        "agent_args",
+        "label",
+        "max_steps",
+        "seed",
+        "episode",
+        "env_seed",
+        "agent_seed",
+        "success",
+        "reward",
+        "steps",
+        "inference_time",
+        "env_time",
+        "error",
+        "error_in",
+        "traceback",
+        "video",
+        "versions",
+        "finished_at",
+    ):
+        assert key in rec, key
+    mpc = next(r for r in out.records if r["agent"] == "mpc")
+    assert mpc["agent_args"]["horizon"] == 15 and mpc["agent_args"]["noise_fraction"] == 1.0
+    assert mpc["max_steps"] == 40  # the env's registered budget
+    assert "numpy" in rec["versions"] and "kinder-bench" in rec["versions"]
+    config = json.loads((tmp_path / CONFIG_FILE).read_text())
+    assert {r["agent"] for r in config["runs"]} == {"random", "mpc"}
+    assert config["imports"] == list(IMPORTS)
+    assert "versions" in config
+
+
+def test_rerun_skips_finished_episodes(toy_id: str, tmp_path: Path) -> None:
+    first = _bench(_runs(toy_id), tmp_path)
+    again = _bench(_runs(toy_id), tmp_path)
+    assert (first.num_ran, again.num_ran, again.num_skipped) == (12, 0, 12)
+    more = _bench(_runs(toy_id, seeds=(0, 1, 2)), tmp_path)  # one more seed: only it runs
+    assert more.num_ran == 6
+    assert len(load_records(tmp_path)) == 18
+
+
+def test_resume_after_interrupt_loses_nothing_and_repeats_nothing(
+    toy_id: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    runs = [RunConfig(toy_id, "kinder_bench_toy:InterruptingAgent", {}, (0, 1), 3)]
+    flag = tmp_path / "interrupt"
+    flag.touch()
+    monkeypatch.setenv("KINDER_BENCH_TEST_INTERRUPT", str(flag))
+    with pytest.raises(KeyboardInterrupt):
+        _bench(runs, tmp_path / "run")
+    partial = load_records(tmp_path / "run")
+    assert [(r["seed"], r["episode"]) for r in partial] == [(0, 0), (0, 1)]
+    # A write cut short by the interruption leaves half a line; resuming must cope.
+    with open(tmp_path / "run" / RESULTS_FILE, "a") as f:
+        f.write('{"run_id": "trunc')
+    flag.unlink()
+    resumed = _bench(runs, tmp_path / "run")
+    assert resumed.num_ran == 4 and resumed.num_skipped == 2
+    keys = [(r["seed"], r["episode"]) for r in load_records(tmp_path / "run")]
+    assert sorted(keys) == [(s, e) for s in (0, 1) for e in range(3)]  # each exactly once
+    reference = _bench(runs, tmp_path / "reference")
+    assert _strip(resumed.records) == _strip(reference.records)
+
+
+def test_agent_crash_is_recorded_as_a_failure(toy_id: str, tmp_path: Path) -> None:
+    runs = [RunConfig(toy_id, "kinder_bench_toy:CrashingAgent", {}, (0,), 6)]
+    out = _bench(runs, tmp_path)
+    crashed = [r for r in out.records if r["error"]]
+    assert len(out.records) == 6
+    assert crashed and len(crashed) < 6
+    for r in crashed:
+        assert r["env_seed"] % 2 == 1
+        assert r["success"] is False and r["steps"] == 2 and r["error_in"] == "agent"
+        assert r["error"] == "ValueError: boom" and "boom" in r["traceback"]
+
+
+def test_unknown_env_and_agent_fail_before_running(toy_id: str, tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="BenchReach"):
+        _bench([RunConfig("kinder/BenchRaech-v0")], tmp_path)
+    with pytest.raises(ValueError, match="Unknown agent"):
+        _bench([RunConfig(toy_id, "nope")], tmp_path)
+    assert not (tmp_path / RESULTS_FILE).exists()
+
+
+def test_process_pool_equals_inline(toy_id: str, tmp_path: Path) -> None:
+    inline = _bench(_runs(toy_id), tmp_path / "inline")
+    pool = _bench(_runs(toy_id), tmp_path / "pool", executor="process", workers=2)
+    assert _strip(pool.records) == _strip(inline.records)
+
+
+def test_ray_equals_inline(toy_id: str, tmp_path: Path) -> None:
+    pytest.importorskip("ray")
+    inline = _bench(_runs(toy_id), tmp_path / "inline")
+    ray_out = _bench(_runs(toy_id), tmp_path / "ray", executor="ray", workers=2)
+    assert _strip(ray_out.records) == _strip(inline.records)
+
+
+def test_recording_writes_gifs(toy_id: str, tmp_path: Path) -> None:
+    import imageio.v3 as iio
+
+    runs = [RunConfig(toy_id, "mpc", {"horizon": 15}, (0, 1), 2)]
+    out = _bench(runs, tmp_path, record="gif", record_episodes=1)
+    videos = [r["video"] for r in out.records if r["video"]]
+    assert len(videos) == 2  # the first episode of each seed
+    rec = next(r for r in out.records if r["video"])
+    frames = iio.imread(rec["video"])
+    # GIF writers merge identical consecutive frames, so there are at most steps + 1 of them.
+    assert 2 <= frames.shape[0] <= rec["steps"] + 1
+    assert frames.shape[1:3] == (32, 32)
+
+
+def test_append_record_writes_whole_lines(tmp_path: Path) -> None:
+    path = tmp_path / RESULTS_FILE
+    for i in range(3):
+        append_record(path, {"i": i, "x": [1.5, None]})
+    assert path.read_text().count("\n") == 3
+    assert [r["i"] for r in load_records(path)] == [0, 1, 2]
+    with pytest.raises(ValueError):
+        append_record(path, {"bad": float("nan")})  # never writes invalid JSON
+    assert len(load_records(path)) == 3

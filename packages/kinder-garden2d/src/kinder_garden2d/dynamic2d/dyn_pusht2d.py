@@ -1,0 +1,197 @@
+"""DynPushT2D: push a T-shaped block onto a goal pose with a dot robot (pymunk)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium
+import numpy as np
+
+from kinder_core import Object, ObjectCentricState, ObjectCentricStateSpace
+from kinder_garden2d.dynamic2d import object_types as ot
+from kinder_garden2d.dynamic2d.base_env import (
+    Dynamic2DConfig,
+    Dynamic2DEnv,
+    object_values,
+    resolve_config,
+    uniform,
+)
+from kinder_garden2d.dynamic2d.geometry import (
+    WorldShape,
+    circle_shape,
+    overlaps,
+    place,
+    tobject_shape,
+    wrap_angle,
+)
+from kinder_garden2d.dynamic2d.physics import Scene
+from kinder_garden2d.rendering import Canvas
+
+
+@dataclass(frozen=True)
+class DynPushT2DConfig(Dynamic2DConfig):
+    """Constants of DynPushT2D (defaults follow the upstream environment)."""
+
+    world_max_x: float = 5.0
+    world_max_y: float = 5.0
+    gravity: float = 0.0
+    damping: float = 0.0  # bodies keep no velocity: quasi-static pushing
+    robot_radius: float = 0.1
+    max_dx: float = 0.05
+    max_dy: float = 0.05
+    robot_init: tuple[float, float] = (1.0, 2.0)  # x and y range
+    tee_width: tuple[float, float] = (0.10, 0.15)
+    tee_length_horizontal: tuple[float, float] = (1.0, 1.25)
+    tee_length_vertical: tuple[float, float] = (1.0, 1.25)
+    tee_mass: float = 1.0
+    tee_init: tuple[float, float] = (1.0, 4.0)  # x and y range of the block and of the goal
+    goal_position_tolerance: float = 0.03
+    goal_angle_tolerance: float = math.radians(8.0)
+    settle_max_seconds: float = 0.0
+
+
+class DynPushT2DEnv(Dynamic2DEnv):
+    """Push the T-shaped block onto the goal T (Diffusion Policy's PushT, in KinDER's style).
+
+    ## Description
+    A top-down 5 × 5 world without gravity. A dot robot (a kinematic disc of radius 0.1) pushes a
+    dynamic T-shaped block (mass 1) until it matches the light-green goal T in position and
+    orientation. Damping is 0, so the block keeps no velocity between substeps: pushing is
+    quasi-static. The robot follows its commanded displacement exactly, spread over the action's
+    0.1 s (ten 0.01 s substeps); touching a wall returns it to its last position and stops it for
+    the rest of the action.
+
+    ## Observation Space
+    Object-centric states with `tblock` (`tobject`, 16 features), `robot` (`dot_robot`, 13) and
+    `goal_tblock` (`tobject`, 16, static). The Box view lists them in that order: 45 float64
+    values. A T's origin is the top-centre of its bar: the bar spans local x ∈ [−lh/2, lh/2],
+    y ∈ [−w, 0], the stem x ∈ [−w/2, w/2], y ∈ [−w − lv, −w]. Angles are wrapped to [−π, π).
+
+    ## Action Space
+    `[dx, dy]` (float64), each in [−0.05, 0.05]: the robot's displacement. Out-of-bound actions
+    are clipped.
+
+    ## Reward
+    −1 per step.
+
+    ## Starting State
+    The block's bar width U[0.10, 0.15], bar and stem lengths U[1.0, 1.25]; its pose and the goal
+    pose x, y ∈ [1, 4], θ ∈ [−π, π). The goal has the block's shape. The robot starts at
+    x, y ∈ [1, 2]. Samples where the robot touches the block, a T leaves the world, or the goal
+    already holds are redrawn.
+
+    ## Episode End
+    Terminates when |x − x_goal| < 0.03, |y − y_goal| < 0.03 and the *wrapped* angle difference
+    is below 8°. Truncated after 1000 steps by the registered TimeLimit.
+
+    ## Arguments
+    * `num_tee` (default 1): kept for upstream compatibility; only 1 is supported.
+    * `config`: a `DynPushT2DConfig` or a mapping of field overrides.
+
+    ## Deviations
+    * The goal compares the wrapped angle difference; upstream compares raw angles, so a block at
+      θ = π − ε never matches a goal at −π + ε although the poses are almost identical.
+    * Time: 0.1 s of simulated time per action in ten 0.01 s substeps (upstream: 1.0 s in 100);
+      the robot tracks its commanded displacement exactly rather than through a PD controller.
+    * Each transition is computed from the observed state alone (a fresh physics space per
+      action), so `set_state` replays exactly.
+    * A transition that leaves the block outside the world, non-finite, or faster than 20 m/s is
+      discarded; `env.num_physics_reverts` counts them.
+
+    ## References
+    Chi et al., Diffusion Policy (PushT); KinDER (RSS 2026).
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    def __init__(
+        self,
+        num_tee: int = 1,
+        config: DynPushT2DConfig | Mapping[str, Any] | None = None,
+        render_mode: str | None = "rgb_array",
+    ) -> None:
+        cfg = resolve_config(DynPushT2DConfig, config)
+        super().__init__(cfg, render_mode)
+        if num_tee != 1:
+            raise ValueError(f"DynPushT2D supports exactly one T block, got num_tee={num_tee!r}")
+        self.config: DynPushT2DConfig = cfg
+        self.robot = Object("robot", ot.DOT_ROBOT)
+        self.tblock = Object("tblock", ot.TOBJECT)
+        self.goal_tblock = Object("goal_tblock", ot.TOBJECT)
+        high = np.array([cfg.max_dx, cfg.max_dy])
+        self.action_space = gymnasium.spaces.Box(-high, high, dtype=np.float64)
+        self.observation_space = ObjectCentricStateSpace([ot.DYNAMIC2D_OBJECT])
+        self.scene = Scene(
+            settings=cfg.physics(),
+            statics=cfg.walls(),
+            robot=self.robot,
+            objects=(self.tblock,),
+            graspable=frozenset(),
+        )
+
+    def box_objects(self) -> list[Object]:
+        return [self.tblock, self.robot, self.goal_tblock]
+
+    def _sample_unsettled(self, rng: np.random.Generator) -> ObjectCentricState:
+        cfg = self.config
+        lo, hi = np.zeros(2), np.array([cfg.world_max_x, cfg.world_max_y])
+        for _ in range(cfg.max_reset_tries):
+            w = uniform(rng, *cfg.tee_width)
+            lh = uniform(rng, *cfg.tee_length_horizontal)
+            lv = uniform(rng, *cfg.tee_length_vertical)
+            geom = dict(width=w, length_horizontal=lh, length_vertical=lv, mass=cfg.tee_mass)
+            tx, ty = uniform(rng, *cfg.tee_init), uniform(rng, *cfg.tee_init)
+            tth = uniform(rng, -math.pi, math.pi)
+            gx, gy = uniform(rng, *cfg.tee_init), uniform(rng, *cfg.tee_init)
+            gth = uniform(rng, -math.pi, math.pi)
+            rx, ry = uniform(rng, *cfg.robot_init), uniform(rng, *cfg.robot_init)
+            state = ObjectCentricState.from_features(
+                {
+                    self.tblock: object_values(tx, ty, tth, ot.GREY, ot.Z_ALL, **geom),
+                    self.goal_tblock: object_values(
+                        gx, gy, gth, ot.LIGHT_GREEN, ot.Z_FLOOR, static=True, **geom
+                    ),
+                    self.robot: object_values(
+                        rx, ry, 0.0, (0.3, 0.3, 0.9), ot.Z_ALL, radius=cfg.robot_radius
+                    ),
+                }
+            )
+            tee = tobject_shape(w, lh, lv)
+            block, goal = place(tee, tx, ty, tth), place(tee, gx, gy, gth)
+            robot = place(circle_shape(cfg.robot_radius), rx, ry, 0.0)
+            if overlaps(robot, block) or self.goal_reached(state):
+                continue
+            if not (_inside(block, lo, hi) and _inside(goal, lo, hi)):
+                continue
+            return state
+        raise RuntimeError(
+            f"DynPushT2D: could not place the T block, the goal and the robot in "
+            f"{cfg.max_reset_tries} tries"
+        )
+
+    def goal_reached(self, state: ObjectCentricState) -> bool:
+        t, g = state[self.tblock], state[self.goal_tblock]
+        cfg = self.config
+        return bool(
+            abs(t[0] - g[0]) < cfg.goal_position_tolerance
+            and abs(t[1] - g[1]) < cfg.goal_position_tolerance
+            and abs(wrap_angle(float(t[2] - g[2]))) < cfg.goal_angle_tolerance
+        )
+
+    def _draw_extras(self, canvas: Canvas, state: ObjectCentricState) -> None:
+        g = state[self.goal_tblock]
+        goal = place(tobject_shape(g[12], g[13], g[14]), g[0], g[1], g[2])
+        r, gr, b = (round(255 * float(c)) for c in g[8:11])
+        for p in goal.polys:
+            canvas.polygon(p, fill=(r, gr, b), outline=(40, 120, 40), outline_width=0.02)
+        for p in goal.polys:
+            canvas.polygon(p, fill=(r, gr, b))
+
+
+def _inside(shape: WorldShape, lo: np.ndarray, hi: np.ndarray) -> bool:
+    """Every vertex of ``shape`` lies in the box [lo, hi]."""
+    return all(bool(np.all((p >= lo) & (p <= hi))) for p in shape.polys)

@@ -1,0 +1,641 @@
+"""The Dynamic3D environment: one MuJoCo env class for every task file (environments.md §5)."""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, ObjectCentricStateSpace
+from kinder_core.state import FloatArray, StateLayout
+from kinder_garden3d.dynamic3d.assets import STATIC_COLLIDER_TYPES
+from kinder_garden3d.dynamic3d.geometry import Array, quat_yaw, quats_to_matrices, yaw_quat
+from kinder_garden3d.dynamic3d.object_types import (
+    ALL_TYPES,
+    DRAWER_TYPE,
+    FIXTURE_TYPE,
+    MOVABLE_TYPE,
+    ROBOT_TYPE,
+    SEESAW_TYPE,
+    STATIC_COLLIDER_TYPE,
+)
+from kinder_garden3d.dynamic3d.predicates import GoalEvaluator, Regions
+from kinder_garden3d.dynamic3d.scene import ARM_KD, ARM_KP, ROBOT_PREFIX, Scene, build_scene
+from kinder_garden3d.dynamic3d.taskfile import ROBOT, TaskSpec, load_task
+from kinder_garden3d.robot.description import GRIPPER_STROKE, RETRACT, robot_description
+
+# Headless rendering: EGL unless the user chose a backend (osmesa, glfw) before importing.
+os.environ.setdefault("MUJOCO_GL", "egl")
+import mujoco  # noqa: E402
+
+_SIM_STATE_SPEC = int(
+    mujoco.mjtState.mjSTATE_FULLPHYSICS
+    | mujoco.mjtState.mjSTATE_MOCAP_POS
+    | mujoco.mjtState.mjSTATE_MOCAP_QUAT
+    | mujoco.mjtState.mjSTATE_WARMSTART
+)
+_FINGER_TRAVEL = GRIPPER_STROKE / 2.0  # slide of one finger pad from open to closed
+_PENETRATION_TOL = 1e-4
+
+
+@dataclass(frozen=True)
+class Dynamic3DConfig:
+    """Physical and sampling constants shared by every Dynamic3D task.
+
+    Attributes:
+        timestep: MuJoCo physics step (s).
+        substeps: Physics steps per action (200 × 0.5 ms = 0.1 s, i.e. 10 Hz control).
+        settle_actions: All-zero actions applied at reset before the first observation.
+        max_base_delta: Bound of the base deltas (m for x, y; rad for yaw).
+        max_arm_delta: Bound of the arm joint deltas (rad).
+        max_arm_velocity_target: Bound of the 7 joint-velocity targets of 18-D tasks (rad/s).
+        image_width, image_height: Rendered frame size for every camera.
+        max_placement_tries: Pose samples per entity before a layout attempt is abandoned.
+        max_reset_tries: Layout attempts per reset before a RuntimeError.
+        placement_gap: Height (m) above its support at which an object is released.
+        default_robot_region: (xmin, ymin, xmax, ymax) for the robot base when the task does
+            not place it (any yaw).
+    """
+
+    timestep: float = 0.0005
+    substeps: int = 200
+    settle_actions: int = 10
+    max_base_delta: float = 0.1
+    max_arm_delta: float = 0.1
+    max_arm_velocity_target: float = 10.0
+    image_width: int = 640
+    image_height: int = 480
+    max_placement_tries: int = 500
+    max_reset_tries: int = 20
+    placement_gap: float = 0.001
+    default_robot_region: tuple[float, float, float, float] = (-1.0, -1.0, 1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        positive = ("timestep", "max_base_delta", "max_arm_delta", "max_arm_velocity_target")
+        for name in positive:
+            if not getattr(self, name) > 0:
+                raise ValueError(f"Dynamic3DConfig.{name} must be > 0, got {getattr(self, name)}")
+        for name in ("substeps", "image_width", "image_height", "max_placement_tries",
+                     "max_reset_tries"):  # fmt: skip
+            if not getattr(self, name) >= 1:
+                raise ValueError(f"Dynamic3DConfig.{name} must be >= 1, got {getattr(self, name)}")
+        if self.settle_actions < 0 or self.placement_gap < 0:
+            raise ValueError("Dynamic3DConfig.settle_actions and placement_gap must be >= 0")
+        x0, y0, x1, y1 = self.default_robot_region
+        if not (x0 <= x1 and y0 <= y1):
+            raise ValueError(
+                f"default_robot_region must be (xmin, ymin, xmax, ymax), got "
+                f"{self.default_robot_region}"
+            )
+
+
+class _PlacementFailure(Exception):
+    pass
+
+
+class Dynamic3DEnv(ObjectCentricEnv):
+    """A TidyBot++-style mobile manipulator in a MuJoCo scene described by a task file.
+
+    ## Description
+    Every Dynamic3D task (Shelf3D, ConstrainedCupboard3D, Rearrange3D, SortClutteredBlocks3D,
+    SweepSimple3D, SweepIntoDrawer3D, ScoopPour3D, BalanceBeam3D, Tossing3D, Dynamo3D) runs in
+    this one class; tasks differ only in their task files (`tasks/<Family>/*.json`: fixtures,
+    objects, regions, cameras, initial-state and goal predicates). The robot has a holonomic
+    base (position servo), a 7-DoF Kinova Gen3 arm (joint PD torque control with gravity
+    compensation) and a two-finger Robotiq 2F-85-style gripper. Physics: MuJoCo, 0.5 ms steps,
+    200 steps per action (10 Hz). Every fixture and object is built from primitive shapes.
+
+    ## Observation Space
+    All objects sorted by name, each with its type's features. Movable objects (16):
+    `x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, bb_x, bb_y, bb_z` (pose of the bounding
+    box centre, world-frame linear and angular velocity, full bounding-box size). A seesaw adds
+    `hinge_pos, hinge_vel` (18). Fixtures (7): `x, y, z, qw, qx, qy, qz` (the footprint centre on
+    the floor); fixed obstacles add `bb_x, bb_y, bb_z`. Drawers (2): `pos, vel` of the slide
+    (0 = closed). The robot (22): `pos_base_x, pos_base_y, pos_base_rot, pos_arm_joint1..7,
+    pos_gripper, vel_base_x, vel_base_y, vel_base_rot, vel_arm_joint1..7, vel_gripper`
+    (gripper: finger closure in [0, 1], 0 = open). Quaternions are ordered (w, x, y, z).
+    The full MuJoCo state (qpos, qvel, warm start, mocap poses, time) travels with each state
+    as `sim_state`, so `set_state(s); step(a)` reproduces a step exactly.
+
+    ## Action Space
+    An 11-D float32 Box: Δbase x, y (m) and yaw (rad) in ±0.1, Δarm joints 1–7 in ±0.1 rad,
+    and a gripper command in [0, 1] (0 = open, 1 = closed). Targets are the current joint
+    positions plus the deltas: the base tracks them with position servos; the arm with
+    `Kp (q* − q) − Kd q̇` + gravity compensation (Kp = 200, 200, 200, 200, 100, 100, 100;
+    Kd = 30, 30, 30, 30, 15, 15, 15; clipped to 200/100 N m); the gripper servo gets
+    `command × 255`. Tasks with `arm_velocity_targets` (Tossing3D) take 18-D actions: the 11
+    above plus 7 absolute joint-velocity targets q̇* in ±10 rad/s, giving
+    `Kp (q* − q) + Kd (q̇* − q̇)`.
+
+    ## Reward
+    −1 on every step.
+
+    ## Starting State
+    Fixtures and objects are placed by the task's initial-state predicates (`on`/`in` a
+    region): a box of the region is drawn, then a point and a yaw in it, with rejection of
+    colliding poses (bounded tries, then a RuntimeError). The robot is placed by its own
+    predicate, or uniformly in x, y ∈ [−1, 1] with any yaw; its arm starts retracted and the
+    gripper open. Ten all-zero actions then let the scene settle; layouts whose settled state
+    already satisfies the goal (or has an object below the floor) are resampled.
+
+    ## Episode End
+    Terminates when the task's goal predicates hold (`on`/`in`: the object's centre, or the
+    robot base, lies in the region's box in the region's frame; `balanced`: the seesaw's hinge
+    angle is within the tolerance; combined with `and`/`or`). Each task file sets
+    `max_episode_steps` (1000 unless stated).
+
+    ## Arguments
+    `task`: a bundled task (`"Shelf3D/Shelf3D.json"`, or a family name with a single file) or a
+    path to any task file. `num_objects`: the task's count (tasks with a `count` section).
+    `config`: a `Dynamic3DConfig`. `render_mode`: `"rgb_array"` or None.
+
+    ## Deviations
+    * Assets are primitive stand-ins (no RoboCasa/MimicLabs meshes, no lab backdrop); the robot
+      is the project's primitive-shape TidyBot++ model. Sizes follow environments.md §5.
+    * The arm PD runs inside MuJoCo (position actuators with kv) and gravity compensation is
+      MuJoCo's `gravcomp` (gravity only; the spec's `qfrc_bias` also holds Coriolis terms, and
+      the compensation is not included in the torque clip).
+    * `pos_gripper`/`vel_gripper` are the measured finger closure and its rate (upstream
+      reports the command `ctrl / 255`). Drawers also report `vel`; seesaws report their hinge.
+    * Joint-velocity targets are bounded (±10 rad/s) instead of unbounded, so that actions can
+      be clipped and checked.
+    * Every task starts with its goal unsatisfied; BalanceBeam3D's goal also requires the blocks
+      on the beam (as in upstream 0.2.5).
+
+    ## References
+    KinDER (RSS 2026), environments.md §5; TidyBot++ (CoRL 2024); MuJoCo.
+
+    ## Version History
+    * v0: initial release.
+    """
+
+    def __init__(
+        self,
+        task: str,
+        num_objects: int | None = None,
+        config: Dynamic3DConfig | None = None,
+        render_mode: str | None = "rgb_array",
+    ) -> None:
+        super().__init__(render_mode=render_mode)
+        self.config = config if config is not None else Dynamic3DConfig()
+        self.task: TaskSpec = load_task(task, num_objects)
+        cfg = self.config
+        self.scene: Scene = build_scene(self.task, (cfg.image_width, cfg.image_height))
+        self.model = mujoco.MjModel.from_xml_string(self.scene.xml)
+        self.model.opt.timestep = cfg.timestep
+        self.data = mujoco.MjData(self.model)
+        self._velocity_targets = self.task.arm_velocity_targets
+        self._setup_objects()
+        self._setup_indices()
+        self._setup_actions()
+        self.observation_space = ObjectCentricStateSpace(ALL_TYPES)
+        self.regions = Regions(self.scene.regions, self.task.regions, self._layout)
+        self.goal = GoalEvaluator(self.task.goal, self.regions, self._layout)
+        self._renderers: dict[tuple[int, int], Any] = {}
+        self._scene_option = mujoco.MjvOption()
+        self._scene_option.geomgroup[:4] = 1  # the robot's collision shapes (group 3) are visible
+        self._cache: tuple[FloatArray, FloatArray] | None = None
+        self._update_metadata()
+
+    # -- setup ----------------------------------------------------------------------------------
+    def _setup_objects(self) -> None:
+        task = self.task
+        objs: dict[str, Object] = {ROBOT: Object(ROBOT, ROBOT_TYPE)}
+        for name, spec in task.fixtures.items():
+            kind = STATIC_COLLIDER_TYPE if spec.kind in STATIC_COLLIDER_TYPES else FIXTURE_TYPE
+            objs[name] = Object(name, kind)
+        for drawer in self.scene.drawers:
+            objs[drawer] = Object(drawer, DRAWER_TYPE)
+        for name in task.objects:
+            kind = SEESAW_TYPE if name in self.scene.seesaws else MOVABLE_TYPE
+            objs[name] = Object(name, kind)
+        self.objects: dict[str, Object] = objs
+        self._layout = StateLayout.of(objs.values())
+
+    def _setup_indices(self) -> None:
+        """Gather/scatter tables between MjData and the flat feature vector.
+
+        The simulator vector is ``[qpos, qvel, mocap_pos, mocap_quat]``; feature ``k`` equals
+        ``sim[src[k]] * scale[k]`` (then angular velocities are rotated to the world frame), and
+        constant features (bounding boxes) come from ``self._const``.
+        """
+        m, lay = self.model, self._layout
+        nq, nv = m.nq, m.nv
+        off_mp, off_mq = nq + nv, nq + nv + 3 * m.nmocap
+        dst: list[int] = []
+        src: list[int] = []
+        scale: list[float] = []
+        const = np.zeros(lay.size)
+
+        def jq(name: str) -> int:
+            return int(m.jnt_qposadr[m.joint(name).id])
+
+        def jv(name: str) -> int:
+            return int(m.jnt_dofadr[m.joint(name).id])
+
+        def add(obj: Object, feature: str, index: int, s: float = 1.0) -> None:
+            dst.append(lay.index(obj, feature))
+            src.append(index)
+            scale.append(s)
+
+        desc = robot_description()
+        robot = self.objects[ROBOT]
+        base_names = [ROBOT_PREFIX + n for n in desc.base_joint_names]
+        arm_names = [ROBOT_PREFIX + n for n in desc.arm_joint_names]
+        left, right = (ROBOT_PREFIX + n for n in desc.finger_joint_names)
+        for feat, jn in zip(("x", "y", "rot"), base_names, strict=True):
+            add(robot, f"pos_base_{feat}", jq(jn))
+            add(robot, f"vel_base_{feat}", nq + jv(jn))
+        for i, jn in enumerate(arm_names):
+            add(robot, f"pos_arm_joint{i + 1}", jq(jn))
+            add(robot, f"vel_arm_joint{i + 1}", nq + jv(jn))
+        add(robot, "pos_gripper", jq(left), 1.0 / _FINGER_TRAVEL)
+        add(robot, "vel_gripper", nq + jv(left), 1.0 / _FINGER_TRAVEL)
+        self._q_base = np.array([jq(n) for n in base_names])
+        self._q_arm = np.array([jq(n) for n in arm_names])
+        self._q_fingers = np.array([jq(left), jq(right)])
+        self._v_fingers = np.array([jv(left), jv(right)])
+
+        for name, spec in self.task.fixtures.items():
+            obj = self.objects[name]
+            mid = int(m.body_mocapid[m.body(name).id])
+            for k, f in enumerate(("x", "y", "z")):
+                add(obj, f, off_mp + 3 * mid + k)
+            for k, f in enumerate(("qw", "qx", "qy", "qz")):
+                add(obj, f, off_mq + 4 * mid + k)
+            if obj.type is STATIC_COLLIDER_TYPE:
+                lo, hi = self.scene.fixtures[name].aabb
+                for k, f in enumerate(("bb_x", "bb_y", "bb_z")):
+                    const[lay.index(obj, f)] = hi[k] - lo[k]
+            del spec
+        for drawer, (_, joint) in self.scene.drawers.items():
+            obj = self.objects[drawer]
+            add(obj, "pos", jq(joint))
+            add(obj, "vel", nq + jv(joint))
+
+        free_q, free_v, ang_dst = [], [], []
+        for name in self.task.objects:
+            obj = self.objects[name]
+            qa, va = jq(f"{name}_joint"), jv(f"{name}_joint")
+            for k, f in enumerate(("x", "y", "z", "qw", "qx", "qy", "qz")):
+                add(obj, f, qa + k)
+            for k, f in enumerate(("vx", "vy", "vz", "wx", "wy", "wz")):
+                add(obj, f, nq + va + k)
+            bb = self.scene.objects[name].bbox
+            for k, f in enumerate(("bb_x", "bb_y", "bb_z")):
+                const[lay.index(obj, f)] = bb[k]
+            if name in self.scene.seesaws:
+                hinge = self.scene.seesaws[name]
+                add(obj, "hinge_pos", jq(hinge))
+                add(obj, "hinge_vel", nq + jv(hinge))
+            free_q.append(qa)
+            free_v.append(va)
+            ang_dst.append([lay.index(obj, f) for f in ("wx", "wy", "wz")])
+        self._dst = np.array(dst, dtype=np.intp)
+        self._src = np.array(src, dtype=np.intp)
+        self._scale = np.array(scale)
+        self._const = const
+        self._free_quat = np.array([[q + 3 + k for k in range(4)] for q in free_q], dtype=np.intp)
+        self._free_ang = np.array([[v + 3 + k for k in range(3)] for v in free_v], dtype=np.intp)
+        self._ang_dst = np.array(ang_dst, dtype=np.intp).reshape(-1, 3)
+        self._sim_size = int(mujoco.mj_stateSize(m, _SIM_STATE_SPEC))
+        self._sim_buf = np.empty(nq + nv + 7 * m.nmocap)
+
+        # Bodies of each entity (a root body and its descendants), for placement checks.
+        parent = m.body_parentid
+        roots = {n: m.body(n).id for n in [*self.task.fixtures, *self.task.objects]}
+        roots[ROBOT] = m.body(ROBOT_PREFIX + desc.links[0].name).id
+        self._entity_bodies: dict[str, NDArray[np.bool_]] = {}
+        for name, root in roots.items():
+            mask = np.zeros(m.nbody, dtype=bool)
+            for b in range(m.nbody):
+                a = b
+                while a > 0 and a != root:
+                    a = int(parent[a])
+                mask[b] = a == root
+            self._entity_bodies[name] = mask
+        self._fixture_body = np.zeros(m.nbody, dtype=bool)
+        for name in self.task.fixtures:
+            self._fixture_body |= self._entity_bodies[name]
+
+    def _setup_actions(self) -> None:
+        cfg, m = self.config, self.model
+        self._act_base = np.array([m.actuator(f"{ROBOT_PREFIX}base_{k}").id for k in "xy"]
+                                  + [m.actuator(f"{ROBOT_PREFIX}base_th").id])  # fmt: skip
+        self._act_arm = np.array([m.actuator(f"{ROBOT_PREFIX}arm_{i}").id for i in range(1, 8)])
+        self._act_grip = m.actuator(f"{ROBOT_PREFIX}fingers_actuator").id
+        self._kd_over_kp = np.array(ARM_KD) / np.array(ARM_KP)
+        low = [-cfg.max_base_delta] * 3 + [-cfg.max_arm_delta] * 7 + [0.0]
+        high = [cfg.max_base_delta] * 3 + [cfg.max_arm_delta] * 7 + [1.0]
+        if self._velocity_targets:
+            low += [-cfg.max_arm_velocity_target] * 7
+            high += [cfg.max_arm_velocity_target] * 7
+        self.action_space = spaces.Box(np.array(low), np.array(high), dtype=np.float32)
+        self._zero_action = np.zeros(len(low))
+
+    def _update_metadata(self) -> None:
+        t = self.task
+        family_id = f"{t.family} ({t.file}" + (f", num_objects={t.count})" if t.count else ")")
+        self.metadata["summary"] = f"{t.description} {t.instruction}".strip()
+        self.metadata["description"] = (
+            f"**Task** {family_id}: {t.description}\n\n"
+            + (f"**Instruction:** {t.instruction}\n\n" if t.instruction else "")
+            + self.metadata["description"]
+        )
+        starts = "; ".join(f"{p} {e} {r}" for p, e, r in t.initial_state) or "none"
+        self.metadata["starting_state"] = (
+            f"Initial-state predicates: {starts}.\n\n" + self.metadata["starting_state"]
+        )
+        self.metadata["episode_end"] = (
+            f"Goal: `{_goal_text(t.goal)}`. Step budget {t.max_episode_steps}.\n\n"
+            + self.metadata["episode_end"]
+        )
+        if t.notes:
+            self.metadata["deviations"] = self.metadata["deviations"] + f"\n* Task notes: {t.notes}"
+
+    # -- state <-> simulator --------------------------------------------------------------------
+    def _sim_vector(self) -> FloatArray:
+        d, m = self.data, self.model
+        nq, nv = m.nq, m.nv
+        buf = self._sim_buf
+        buf[:nq] = d.qpos
+        buf[nq : nq + nv] = d.qvel
+        buf[nq + nv : nq + nv + 3 * m.nmocap] = d.mocap_pos.ravel()
+        buf[nq + nv + 3 * m.nmocap :] = d.mocap_quat.ravel()
+        return buf
+
+    def _features(self) -> FloatArray:
+        """The feature vector of the simulator's current state."""
+        data = self._const.copy()
+        data[self._dst] = self._sim_vector()[self._src] * self._scale
+        if len(self._ang_dst):
+            q = self.data.qpos[self._free_quat]
+            w_local = self.data.qvel[self._free_ang]
+            data[self._ang_dst] = np.einsum("nij,nj->ni", quats_to_matrices(q), w_local)
+        return data
+
+    def _write_features(self, data: FloatArray) -> None:
+        """Set qpos, qvel and mocap poses from features (the right finger mirrors the left);
+        the warm start is cleared."""
+        m, d = self.model, self.data
+        nq, nv = m.nq, m.nv
+        sim = self._sim_vector().copy()
+        sim[self._src] = data[self._dst] / self._scale
+        if len(self._ang_dst):
+            q = sim[self._free_quat]
+            w_world = data[self._ang_dst]
+            sim[nq + self._free_ang] = np.einsum("nji,nj->ni", quats_to_matrices(q), w_world)
+        d.qpos[:] = sim[:nq]
+        d.qvel[:] = sim[nq : nq + nv]
+        d.qpos[self._q_fingers[1]] = d.qpos[self._q_fingers[0]]
+        d.qvel[self._v_fingers[1]] = d.qvel[self._v_fingers[0]]
+        d.mocap_pos[:] = sim[nq + nv : nq + nv + 3 * m.nmocap].reshape(-1, 3)
+        d.mocap_quat[:] = sim[nq + nv + 3 * m.nmocap :].reshape(-1, 4)
+        d.qacc_warmstart[:] = 0.0
+        d.time = 0.0
+
+    def _load(self, state: ObjectCentricState) -> None:
+        """Make MjData hold ``state``: its ``sim_state`` when it agrees with the features, else
+        the features (features always win)."""
+        sim = state.sim_state
+        if sim is not None and self._cache is not None:
+            cached_data, cached_sim = self._cache
+            if np.array_equal(state.data, cached_data) and np.array_equal(sim, cached_sim):
+                return
+        if sim is not None and sim.shape == (self._sim_size,):
+            mujoco.mj_setState(self.model, self.data, sim, _SIM_STATE_SPEC)
+            if np.array_equal(self._features(), state.data):
+                self._cache = (state.data.copy(), sim.copy())
+                return
+        self._write_features(state.data)
+        self._cache = None
+
+    def _extract(self) -> ObjectCentricState:
+        """The simulator's current state as an object-centric state (with ``sim_state``)."""
+        data = self._features()
+        sim = np.empty(self._sim_size)
+        mujoco.mj_getState(self.model, self.data, sim, _SIM_STATE_SPEC)
+        self._cache = (data, sim)
+        return ObjectCentricState(self._layout, data, sim.copy())
+
+    # -- dynamics -------------------------------------------------------------------------------
+    def _transition(self, state: ObjectCentricState, action: FloatArray) -> ObjectCentricState:
+        self._load(state)
+        self._apply(action)
+        mujoco.mj_step(self.model, self.data, self.config.substeps)
+        return self._extract()
+
+    def _apply(self, action: FloatArray) -> None:
+        d = self.data
+        ctrl = d.ctrl
+        ctrl[self._act_base] = d.qpos[self._q_base] + action[0:3]
+        arm = d.qpos[self._q_arm] + action[3:10]
+        if self._velocity_targets:
+            # Kp (q* - q) + Kd (v* - v) == Kp ((q* + Kd/Kp v*) - q) - Kd v: one PD actuator.
+            arm = arm + self._kd_over_kp * action[11:18]
+        ctrl[self._act_arm] = arm
+        ctrl[self._act_grip] = action[10] * 255.0
+
+    def goal_reached(self, state: ObjectCentricState) -> bool:
+        """Whether the task's goal expression holds in ``state`` (features only)."""
+        return self.goal(state)
+
+    # -- reset ----------------------------------------------------------------------------------
+    def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
+        cfg = self.config
+        problem = ""
+        for _ in range(cfg.max_reset_tries):
+            try:
+                self._place_all(rng)
+            except _PlacementFailure as e:
+                problem = str(e)
+                continue
+            state = self._extract()
+            for _ in range(cfg.settle_actions):
+                state = self._transition(state, self._zero_action)
+            if self.goal_reached(state):
+                problem = "the settled layout already satisfied the goal"
+                continue
+            z = [state.get(self.objects[n], "z") for n in self.task.objects]
+            if z and min(z) < 0.0:
+                problem = "an object fell below the floor while settling"
+                continue
+            return state
+        raise RuntimeError(
+            f"{self.env_name} ({self.task.file}): no valid initial state in "
+            f"{cfg.max_reset_tries} layout attempts; last problem: {problem}"
+        )
+
+    def _place_all(self, rng: np.random.Generator) -> None:
+        m, d = self.model, self.data
+        mujoco.mj_resetData(m, d)
+        d.qpos[self._q_arm] = RETRACT
+        self._fixture_boxes: list[tuple[str, Array, Array]] = []
+        for name, spec in self.task.fixtures.items():
+            if spec.pos is not None:
+                self._fixture_boxes.append((name, *self._fixture_aabb(name)))
+        robot_placed = False
+        for _, entity, region in self.task.initial_state:
+            if entity == ROBOT:
+                self._place_robot(rng, region)
+                robot_placed = True
+            elif entity in self.task.fixtures:
+                self._place_fixture(rng, entity, region)
+            else:
+                self._place_object(rng, entity, region)
+        if not robot_placed:
+            self._place_robot(rng, None)
+        d.ctrl[self._act_base] = d.qpos[self._q_base]
+        d.ctrl[self._act_arm] = d.qpos[self._q_arm]
+
+    def _region_sample(self, rng: np.random.Generator, region: str) -> tuple[Array, float]:
+        """A point (bottom height as z) and a yaw drawn from ``region``, in world coordinates."""
+        spec = self.task.regions[region]
+        k = int(rng.integers(len(spec.boxes)))
+        box = spec.boxes[k]
+        local = rng.uniform(box[:3], box[3:])
+        yaw = float(rng.uniform(spec.yaws[k, 0], spec.yaws[k, 1]))
+        frame = self.regions.transform(ObjectCentricState(self._layout, self._features()), region)
+        world = frame[:3, :3] @ local + frame[:3, 3]
+        heading = math.atan2(frame[1, 0], frame[0, 0])
+        return world, heading + yaw
+
+    def _collides(self, entity: str, ignore_fixtures: bool = False) -> bool:
+        m, d = self.model, self.data
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_collision(m, d)
+        n = d.ncon
+        if n == 0:
+            return False
+        geoms = d.contact.geom[:n]
+        deep = d.contact.dist[:n] < -_PENETRATION_TOL
+        bodies = m.geom_bodyid[geoms]
+        mask = self._entity_bodies[entity]
+        mine = mask[bodies]
+        hit = deep & (mine[:, 0] ^ mine[:, 1])
+        if ignore_fixtures:
+            other = np.where(mine[:, 0], bodies[:, 1], bodies[:, 0])
+            hit &= ~self._fixture_body[other]
+        return bool(hit.any())
+
+    def _place_object(self, rng: np.random.Generator, name: str, region: str) -> None:
+        d = self.data
+        qa = int(self.model.jnt_qposadr[self.model.joint(f"{name}_joint").id])
+        bottom = self.scene.objects[name].bottom
+        for _ in range(self.config.max_placement_tries):
+            point, yaw = self._region_sample(rng, region)
+            point[2] += bottom + self.config.placement_gap
+            d.qpos[qa : qa + 3] = point
+            d.qpos[qa + 3 : qa + 7] = yaw_quat(yaw)
+            if not self._collides(name):
+                return
+        raise _PlacementFailure(f"could not place {name!r} in region {region!r} without collisions")
+
+    def _fixture_aabb(self, name: str) -> tuple[Array, Array]:
+        mid = int(self.model.body_mocapid[self.model.body(name).id])
+        pos, quat = self.data.mocap_pos[mid], self.data.mocap_quat[mid]
+        lo, hi = self.scene.fixtures[name].aabb
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                            for z in (lo[2], hi[2])])  # fmt: skip
+        world = corners @ quats_to_matrices(quat[None])[0].T + pos
+        return world.min(axis=0), world.max(axis=0)
+
+    def _place_fixture(self, rng: np.random.Generator, name: str, region: str) -> None:
+        d = self.data
+        mid = int(self.model.body_mocapid[self.model.body(name).id])
+        for _ in range(self.config.max_placement_tries):
+            point, yaw = self._region_sample(rng, region)
+            d.mocap_pos[mid] = point
+            d.mocap_quat[mid] = yaw_quat(yaw)
+            lo, hi = self._fixture_aabb(name)
+            overlap = any(
+                np.all(lo < h - 1e-3) and np.all(hi > lw + 1e-3) for _, lw, h in self._fixture_boxes
+            )
+            if not overlap and not self._collides(name, ignore_fixtures=True):
+                self._fixture_boxes.append((name, lo, hi))
+                return
+        raise _PlacementFailure(f"could not place fixture {name!r} in region {region!r}")
+
+    def _place_robot(self, rng: np.random.Generator, region: str | None) -> None:
+        d = self.data
+        for _ in range(self.config.max_placement_tries):
+            if region is None:
+                x0, y0, x1, y1 = self.config.default_robot_region
+                x, y = rng.uniform(x0, x1), rng.uniform(y0, y1)
+                yaw = float(rng.uniform(-math.pi, math.pi))
+            else:
+                point, yaw = self._region_sample(rng, region)
+                x, y = point[0], point[1]
+            d.qpos[self._q_base] = (x, y, yaw)
+            if not self._collides(ROBOT):
+                return
+        raise _PlacementFailure(f"could not place the robot in region {region or 'default'!r}")
+
+    # -- rendering ------------------------------------------------------------------------------
+    @property
+    def camera_names(self) -> list[str]:
+        """Every camera: the task's, then the robot's base and wrist cameras."""
+        return list(self.scene.cameras)
+
+    def _renderer(self) -> Any:
+        key = (self.config.image_height, self.config.image_width)
+        if key not in self._renderers:
+            try:
+                self._renderers[key] = mujoco.Renderer(self.model, *key)
+            except Exception as e:  # the GL backend is chosen by MUJOCO_GL
+                raise RuntimeError(
+                    f"{self.env_name}: could not create a MuJoCo renderer with "
+                    f"MUJOCO_GL={os.environ.get('MUJOCO_GL')!r} ({e}); headless machines need "
+                    f"MUJOCO_GL=egl (libEGL) or MUJOCO_GL=osmesa (libOSMesa) set before mujoco is "
+                    f"imported"
+                ) from e
+        return self._renderers[key]
+
+    def _render_camera(self, state: ObjectCentricState, camera: str) -> NDArray[np.uint8]:
+        self._load(state)
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
+        renderer = self._renderer()
+        renderer.update_scene(self.data, camera=camera, scene_option=self._scene_option)
+        frame: NDArray[np.uint8] = renderer.render().copy()
+        return frame
+
+    def _render_state(self, state: ObjectCentricState) -> NDArray[np.uint8]:
+        return self._render_camera(state, "task_view")
+
+    def render_cameras(self, state: ObjectCentricState | None = None) -> dict[str, NDArray[np.uint8]]:
+        """A frame from every camera (task cameras, ``robot_base``, ``robot_wrist``) of ``state``
+        (default: the live state), keyed by camera name."""
+        if state is None:
+            state = self.get_state()
+        return {name: self._render_camera(state, name) for name in self.scene.cameras}
+
+    def close(self) -> None:
+        for renderer in self._renderers.values():
+            renderer.close()
+        self._renderers.clear()
+        super().close()
+
+    # -- helpers for users and tests ------------------------------------------------------------
+    def goal_atoms(self, state: ObjectCentricState) -> dict[str, bool]:
+        """The truth of every atom of the goal in ``state``."""
+        return self.goal.atoms(state)
+
+    def base_yaw(self, state: ObjectCentricState, name: str) -> float:
+        """The heading of an object or fixture (rad)."""
+        obj = self.objects[name]
+        return quat_yaw(np.array([state.get(obj, f) for f in ("qw", "qx", "qy", "qz")]))
+
+
+def _goal_text(goal: Any) -> str:
+    if goal[0] in ("and", "or"):
+        inner = f" {goal[0]} ".join(_goal_text(g) for g in goal[1])
+        return f"({inner})" if len(goal[1]) > 1 else inner
+    if goal[0] == "balanced":
+        return f"balanced({goal[1]}, {goal[2]:g}°)"
+    return f"{goal[0]}({goal[1]}, {goal[2]})"

@@ -1,0 +1,263 @@
+"""Scene assembly: a task's fixtures, objects, regions, cameras and the shared robot as one MJCF
+string (no MuJoCo import here; the env compiles the string once per construction).
+
+The robot comes from :func:`kinder_garden3d.robot.mjcf.mjcf_parts` (prefix ``robot_``). Two
+changes are made while splicing it in, both in this module and not in ``robot/``:
+
+* the seven arm torque motors are replaced by position actuators with the spec's PD gains
+  (``force = Kp (q* - q) - Kd q̇``, clipped to the motor limits), so the PD runs inside MuJoCo
+  at every physics tick instead of in Python;
+* the arm and gripper bodies get ``gravcomp="1"``: MuJoCo applies the gravity-compensation
+  torque (the gravity part of the spec's ``qfrc_bias`` term) as a passive force.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from kinder_garden3d.dynamic3d.assets import (
+    DEFAULT_CLASSES,
+    FIXTURE_CLASS,
+    HingeFrame,
+    build_fixture,
+    build_object,
+    FixtureAsset,
+    ObjectAsset,
+)
+from kinder_garden3d.dynamic3d.geometry import (
+    Array,
+    look_at_xyaxes,
+    pose_matrix,
+    yaw_quat,
+)
+from kinder_garden3d.dynamic3d.taskfile import GROUND, TaskFileError, TaskSpec
+from kinder_garden3d.robot.description import robot_description
+from kinder_garden3d.robot.mjcf import ARM_TORQUE_LIMITS, mjcf_parts
+
+ROBOT_PREFIX = "robot_"
+#: Arm PD gains of the spec (N m / rad and N m s / rad).
+ARM_KP = (200.0, 200.0, 200.0, 200.0, 100.0, 100.0, 100.0)
+ARM_KD = (30.0, 30.0, 30.0, 30.0, 15.0, 15.0, 15.0)
+#: Robot bodies that receive gravity compensation (everything carried by the arm).
+_GRAVCOMP_BODIES = (
+    "gen3_base_link", "shoulder_link", "half_arm_1_link", "half_arm_2_link", "forearm_link",
+    "spherical_wrist_1_link", "spherical_wrist_2_link", "bracelet_link", "gripper_base_link",
+    "left_finger_link", "right_finger_link",
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class RegionFrame:
+    """How to find a region's frame from a state.
+
+    ``kind``: ``"ground"`` (world frame), ``"fixture"`` or ``"object"`` (the target's pose).
+    ``local``: a constant 4x4 transform in the target frame. ``drawer``: the drawer object that
+    carries the frame (translated by its slide position along ``drawer_axis``). ``hinge``: a
+    hinged frame of the target (the seesaw's beam), rotated by the target's hinge angle.
+    """
+
+    kind: str
+    target: str
+    local: Array
+    align: str
+    drawer: str | None = None
+    drawer_axis: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    hinge: HingeFrame | None = None
+
+
+@dataclass
+class Scene:
+    """The compiled-to-be MJCF and what the env needs to know about its entities."""
+
+    xml: str
+    objects: dict[str, ObjectAsset]
+    fixtures: dict[str, FixtureAsset]
+    drawers: dict[str, tuple[str, str]]  # drawer object name -> (fixture, joint name)
+    seesaws: dict[str, str]  # seesaw object -> hinge joint name
+    regions: dict[str, RegionFrame]
+    cameras: list[str]
+    parked: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+
+
+def _f(values: object) -> str:
+    return " ".join(f"{float(v):.6g}" for v in np.asarray(values, dtype=float).ravel())
+
+
+def _robot_xml() -> tuple[str, str, str, str]:
+    """The robot's worldbody, actuators, equality and defaults, adapted as described above."""
+    parts = mjcf_parts(prefix=ROBOT_PREFIX)
+    body = parts.worldbody
+    for name in _GRAVCOMP_BODIES:
+        tag = f'<body name="{ROBOT_PREFIX}{name}"'
+        if tag not in body:
+            raise RuntimeError(f"robot MJCF has no body {ROBOT_PREFIX}{name}")
+        body = body.replace(tag, f'{tag} gravcomp="1"')
+    lines = [ln for ln in parts.actuator.splitlines() if "<motor " not in ln]
+    desc = robot_description()
+    arm = []
+    for i, joint in enumerate(desc.arm_joint_names):
+        lim = ARM_TORQUE_LIMITS[i]
+        arm.append(
+            f'    <position name="{ROBOT_PREFIX}arm_{i + 1}" joint="{ROBOT_PREFIX}{joint}" '
+            f'kp="{ARM_KP[i]:g}" kv="{ARM_KD[i]:g}" ctrllimited="false" '
+            f'forcelimited="true" forcerange="{-lim:g} {lim:g}"/>'
+        )
+    if len(lines) + len(arm) != 3 + 7 + 1:
+        raise RuntimeError("unexpected robot actuator layout (expected 3 base, 7 arm, 1 gripper)")
+    actuators = "\n".join(lines[:3] + arm + lines[3:])
+    return body, actuators, parts.equality, parts.default
+
+
+def _region_frame(task: TaskSpec, name: str, fixtures: dict[str, FixtureAsset],
+                  objects: dict[str, ObjectAsset]) -> RegionFrame:  # fmt: skip
+    spec = task.regions[name]
+    where = f"{task.file}: regions.{name}"
+    if spec.target == GROUND:
+        return RegionFrame("ground", GROUND, np.eye(4), spec.align)
+    if spec.target in fixtures:
+        asset = fixtures[spec.target]
+        frame = spec.frame or asset.default_frame
+        if frame not in asset.frames:
+            raise TaskFileError(
+                f"{where}.frame: fixture {spec.target!r} has no frame {frame!r}; frames: "
+                f"{sorted(asset.frames)}"
+            )
+        drawer = asset.drawer_of.get(frame)
+        return RegionFrame("fixture", spec.target, asset.frames[frame], spec.align, drawer)
+    asset_o = objects[spec.target]
+    if spec.frame is None:
+        return RegionFrame("object", spec.target, np.eye(4), spec.align)
+    if spec.frame not in asset_o.frames:
+        raise TaskFileError(
+            f"{where}.frame: object {spec.target!r} has no frame {spec.frame!r}; frames: "
+            f"{sorted(asset_o.frames)}"
+        )
+    return RegionFrame("object", spec.target, np.eye(4), spec.align,
+                       hinge=asset_o.frames[spec.frame])  # fmt: skip
+
+
+def _marker(name: str, box: Array, rgba: tuple[float, ...], local: Array) -> str:
+    lo, hi = box[:3], box[3:]
+    centre = local[:3, :3] @ ((lo + hi) / 2.0) + local[:3, 3]
+    half = np.maximum((hi - lo) / 2.0, 1e-4)
+    return (
+        f'<site name="{name}" type="box" size="{_f(half)}" pos="{_f(centre)}" '
+        f'rgba="{_f(rgba)}" group="1"/>'
+    )
+
+
+def build_scene(task: TaskSpec, image_size: tuple[int, int]) -> Scene:
+    """Assemble the MJCF for ``task`` (``image_size`` = (width, height) of offscreen frames)."""
+    fixtures = {n: build_fixture(e.kind, n, e.params) for n, e in task.fixtures.items()}
+    objects = {n: build_object(e.kind, n, e.params) for n, e in task.objects.items()}
+    regions = {n: _region_frame(task, n, fixtures, objects) for n in task.regions}
+
+    # Region markers (only regions with a visible rgba), attached to the body that carries them.
+    markers: dict[str, list[str]] = {}
+    for n, spec in task.regions.items():
+        if spec.rgba is None or spec.rgba[3] <= 0.0:
+            continue
+        rf = regions[n]
+        if rf.hinge is not None:
+            body = f"{rf.target}_beam"
+            local = pose_matrix(rf.hinge.offset, np.eye(3))
+        elif rf.drawer is not None:
+            body = rf.drawer
+            drawer = next(d for d in fixtures[rf.target].drawers if d.name == rf.drawer)
+            local = drawer.frame.copy()
+            local[:3, 3] = (0.0, 0.0, 0.01)
+        else:
+            body = "world" if rf.kind == "ground" else rf.target
+            local = rf.local
+        for j, box in enumerate(spec.boxes):
+            markers.setdefault(body, []).append(_marker(f"region_{n}_{j}", box, spec.rgba, local))
+
+    def with_markers(xml: str, body: str) -> str:
+        extra = markers.get(body)
+        if not extra:
+            return xml
+        tag_end = xml.index(">", xml.index(f'name="{body}"')) + 1
+        return xml[:tag_end] + "\n" + "\n".join(extra) + xml[tag_end:]
+
+    bodies: list[str] = []
+    parked: dict[str, tuple[float, float, float]] = {}
+    for j, (n, asset_f) in enumerate(fixtures.items()):
+        spec_f = task.fixtures[n]
+        if spec_f.pos is not None:
+            pos: tuple[float, float, float] = spec_f.pos
+            quat = yaw_quat(spec_f.yaw or 0.0)
+        else:
+            pos = (-60.0 - 8.0 * j, -60.0, 0.0)
+            quat = yaw_quat(0.0)
+        parked[n] = pos
+        xml = asset_f.body(n, pos, quat)
+        for drawer in asset_f.drawers:
+            xml = with_markers(xml, drawer.name)
+        bodies.append(with_markers(xml, n))
+    for j, (n, asset_o) in enumerate(objects.items()):
+        pos = (60.0 + 3.0 * (j % 30), 60.0 + 3.0 * (j // 30), 5.0)
+        parked[n] = pos
+        xml = asset_o.body(n, pos, (1.0, 0.0, 0.0, 0.0))
+        if asset_o.hinge is not None:
+            xml = with_markers(xml, f"{n}_beam")
+        bodies.append(with_markers(xml, n))
+    statics = [
+        f'<geom name="static_{s.name}" type="box" size="{_f(np.array(s.size) / 2)}" '
+        f'pos="{_f(s.pos)}" quat="{_f(yaw_quat(s.yaw))}" rgba="{_f(s.rgba)}" '
+        f'class="{FIXTURE_CLASS}"/>'
+        for s in task.static
+    ]
+    cameras = []
+    for cam in task.cameras.values():
+        xy = look_at_xyaxes(list(cam.pos), list(cam.lookat))
+        cameras.append(
+            f'<camera name="{cam.name}" pos="{_f(cam.pos)}" xyaxes="{_f(xy)}" fovy="{cam.fovy:g}"/>'
+        )
+    robot_body, robot_act, robot_eq, robot_default = _robot_xml()
+    world_markers = "\n".join(markers.get("world", []))
+    width, height = image_size
+    xml = f"""<mujoco model="kinder_{task.family}">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="0.0005" integrator="implicitfast"/>
+  <visual>
+    <global offwidth="{max(width, 640)}" offheight="{max(height, 480)}"/>
+    <quality shadowsize="2048"/>
+    <headlight ambient="0.35 0.35 0.35" diffuse="0.5 0.5 0.5" specular="0.1 0.1 0.1"/>
+  </visual>
+  <asset>
+    <texture name="sky" type="skybox" builtin="gradient" rgb1="0.92 0.94 0.97" rgb2="0.7 0.75 0.82"
+      width="64" height="64"/>
+    <texture name="floor" type="2d" builtin="checker" rgb1="0.82 0.82 0.80" rgb2="0.74 0.74 0.72"
+      width="256" height="256"/>
+    <material name="floor" texture="floor" texrepeat="8 8" reflectance="0.05"/>
+  </asset>
+  <default>
+{robot_default}
+{DEFAULT_CLASSES}
+  </default>
+  <worldbody>
+    <light name="sun" pos="1 -1 4" dir="-0.2 0.2 -1" directional="true" diffuse="0.6 0.6 0.6"
+      castshadow="true"/>
+    <geom name="floor" type="plane" size="0 0 0.05" material="floor" class="{FIXTURE_CLASS}"/>
+{world_markers}
+{chr(10).join(statics)}
+{chr(10).join(bodies)}
+{chr(10).join(cameras)}
+{robot_body}
+  </worldbody>
+  <equality>
+{robot_eq}
+  </equality>
+  <actuator>
+{robot_act}
+  </actuator>
+</mujoco>
+"""
+    drawers = {
+        d.name: (fname, d.joint) for fname, fa in fixtures.items() for d in fa.drawers
+    }
+    seesaws = {n: a.hinge for n, a in objects.items() if a.hinge is not None}
+    camera_names = [*task.cameras, f"{ROBOT_PREFIX}base", f"{ROBOT_PREFIX}wrist"]
+    return Scene(xml, objects, fixtures, drawers, seesaws, regions, camera_names, parked)

@@ -1,0 +1,71 @@
+"""Planning models (concepts, operators, skills, samplers) per environment family.
+
+Models live next to their env's family, mirroring the garden layout
+(``models/kinematic2d/motion2d.py`` for ``kinder_garden2d/kinematic2d/motion2d.py``). Each module
+has a ``create_model(env) -> PlanningModel`` function; :data:`MODELS` maps family names to them by
+string, so importing this package imports no model (and no 3D simulator).
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+from collections.abc import Callable
+from typing import cast
+
+from kinder_core import ObjectCentricEnv
+from kinder_core.registration import FAMILY_SOURCES, family_info
+
+from kinder_gym.model import PlanningModel
+
+#: Family name → ``"module:function"`` building the family's :class:`PlanningModel`.
+MODELS: dict[str, str] = {
+    "Motion2D": "kinder_gym.models.kinematic2d.motion2d:create_model",
+    "StickButton2D": "kinder_gym.models.kinematic2d.stickbutton2d:create_model",
+}
+
+_ID_RE = re.compile(r"^kinder/(?P<family>[A-Za-z0-9]+)(?:-.+?)?-v\d+$")
+
+
+def register_model(family: str, entry_point: str) -> None:
+    """Make ``entry_point`` (``"module:function"``) the model factory of ``family``."""
+    if ":" not in entry_point:
+        raise ValueError(f"entry_point must be 'module:function', got {entry_point!r}")
+    MODELS[family] = entry_point
+
+
+def family_of(env: ObjectCentricEnv) -> str:
+    """The family of an env: from its registered id, else from its class."""
+    spec = env.spec
+    if spec is not None:
+        m = _ID_RE.match(spec.id)
+        if m is not None:
+            return m.group("family")
+    cls = f"{type(env).__module__}:{type(env).__name__}"
+    for family in FAMILY_SOURCES:
+        info = family_info(family)
+        if info is not None and info.entry_point == cls:
+            return family
+    raise ValueError(
+        f"Cannot tell which KinDER family {type(env).__name__} belongs to (no registered id and "
+        f"no registered entry point {cls})"
+    )
+
+
+def create_model(env: ObjectCentricEnv, family: str | None = None) -> PlanningModel:
+    """The planning model of ``env`` (its family is inferred when not given)."""
+    fam = family or family_of(env)
+    entry_point = MODELS.get(fam)
+    if entry_point is None:
+        raise ValueError(
+            f"No planning model for {fam}; families with a model: {sorted(MODELS)}"
+        )
+    module_name, _, attr = entry_point.partition(":")
+    factory = cast(
+        Callable[[ObjectCentricEnv], PlanningModel],
+        getattr(importlib.import_module(module_name), attr),
+    )
+    return factory(env)
+
+
+__all__ = ["MODELS", "create_model", "family_of", "register_model"]

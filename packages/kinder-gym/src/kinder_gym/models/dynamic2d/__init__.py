@@ -1,0 +1,1 @@
+"""Planning models of the Dynamic2D families."""

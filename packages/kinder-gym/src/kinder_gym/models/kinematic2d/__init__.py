@@ -1,0 +1,1 @@
+"""Planning models of the Kinematic2D families."""
