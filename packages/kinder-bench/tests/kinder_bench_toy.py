@@ -7,6 +7,7 @@ doubles as the ``imports`` module that worker processes import to make the env.
 from __future__ import annotations
 
 import os
+import time
 from typing import Any
 
 import gymnasium
@@ -138,3 +139,13 @@ def _third_seed() -> int:
     from kinder_bench.runner import episode_seeds
 
     return episode_seeds(0, 3)[2]
+
+
+class SlowAgent(Agent[NoArgs]):
+    """Stays still, slowly (10 ms per action): gives a test time to kill a run midway."""
+
+    name = "slow"
+
+    def act(self, obs: Any) -> NDArray[np.float64]:
+        time.sleep(0.01)
+        return np.zeros(2)

@@ -1,4 +1,4 @@
-"""The ``kinder`` command end to end (on a Kinematic2D env when one is installed)."""
+"""The ``kinder`` command end to end, on a real Kinematic2D env (Motion2D-p0)."""
 
 from __future__ import annotations
 
@@ -20,10 +20,8 @@ REAL_ENV = "kinder/Motion2D-p0-v0"
 
 @pytest.fixture(scope="module")
 def e2e() -> tuple[str, list[str]]:
-    """The env the CLI is exercised on, and the options that make it available."""
-    if REAL_ENV in kinder_core.list_envs("Kinematic2D"):
-        return REAL_ENV, []
-    return "kinder/BenchReach-v0", ["--import", "kinder_bench_toy"]
+    """The env the CLI is exercised on (a real Kinematic2D env), and extra options."""
+    return REAL_ENV, []
 
 
 def _ok(args: list[str]) -> str:
@@ -35,6 +33,7 @@ def _ok(args: list[str]) -> str:
 def test_envs_lists_ids(e2e: tuple[str, list[str]]) -> None:
     env_id, opts = e2e
     assert env_id in _ok(["envs", *opts])
+    assert "kinder/BenchReach-v0" in _ok(["envs", "--import", "kinder_bench_toy"])
     out = _ok(["envs", "--category", "Kinematic2D"])
     for i in kinder_core.list_envs("Kinematic2D"):
         assert i in out
@@ -168,3 +167,10 @@ def test_console_script_runs() -> None:
         [sys.executable, "-m", "kinder_bench", "agents"], capture_output=True, text=True, check=True
     )
     assert "mpc" in out.stdout
+
+
+@pytest.mark.slow
+def test_full_demo(tmp_path: Path) -> None:
+    out = _ok(["demo", "--out", str(tmp_path / "demo"), "--no-progress"])
+    assert "Motion2D-p0" in out and "StickButton2D-b1" in out
+    assert len(list((tmp_path / "demo" / "videos").glob("*.gif"))) == 8

@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -135,6 +140,37 @@ def test_resume_after_interrupt_loses_nothing_and_repeats_nothing(
     assert _strip(resumed.records) == _strip(reference.records)
 
 
+def test_resume_after_killing_the_whole_process_group(toy_id: str, tmp_path: Path) -> None:
+    # The hardest interruption: SIGKILL to the CLI and its pool workers in the middle of a run.
+    run_dir = tmp_path / "run"
+    cmd = [
+        sys.executable, "-m", "kinder_bench", "bench", "run", "--env", toy_id,
+        "--agent", "kinder_bench_toy:SlowAgent", "--seeds", "0-1", "--episodes", "10",
+        "--out", str(run_dir), "--workers", "2", "--no-progress", "--no-report",
+        "--import", "kinder_bench_toy",
+    ]  # fmt: skip
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen(
+        cmd, env=env, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
+    results = run_dir / RESULTS_FILE
+    try:
+        while proc.poll() is None and (not results.exists() or results.read_text().count("\n") < 3):
+            time.sleep(0.05)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    assert proc.returncode == -signal.SIGKILL, proc.stderr.read() if proc.stderr else ""
+    before = load_records(run_dir)
+    assert 3 <= len(before) < 20
+    runs = [RunConfig(toy_id, "kinder_bench_toy:SlowAgent", {}, (0, 1), 10)]
+    resumed = _bench(runs, run_dir, executor="process", workers=2)
+    assert resumed.num_ran == 20 - len(before)
+    keys = [(r["seed"], r["episode"]) for r in load_records(run_dir)]
+    assert sorted(keys) == [(s, e) for s in (0, 1) for e in range(10)]
+
+
 def test_agent_crash_is_recorded_as_a_failure(toy_id: str, tmp_path: Path) -> None:
     runs = [RunConfig(toy_id, "kinder_bench_toy:CrashingAgent", {}, (0,), 6)]
     out = _bench(runs, tmp_path)
@@ -191,3 +227,13 @@ def test_append_record_writes_whole_lines(tmp_path: Path) -> None:
     with pytest.raises(ValueError):
         append_record(path, {"bad": float("nan")})  # never writes invalid JSON
     assert len(load_records(path)) == 3
+
+
+def test_default_step_budget_follows_the_paper(toy_id: str) -> None:
+    from kinder_bench.envs import default_max_steps
+    from kinder_bench.runner import resolve_run
+
+    assert resolve_run(RunConfig("Motion2D-p0")).max_steps == 200  # the paper's budget
+    registered = default_max_steps("kinder/Motion2D-p1-v0")
+    assert resolve_run(RunConfig("Motion2D-p1")).max_steps == registered
+    assert resolve_run(RunConfig(toy_id, max_steps=7)).max_steps == 7

@@ -142,6 +142,33 @@ def test_shapes_outside_or_across_the_border_are_clipped() -> None:
     assert np.all(img[5:, :5] == 0) and np.all(img[:5] == 255) and np.all(img[:, 5:] == 255)
 
 
+def test_finish_hands_over_the_picture_and_clears() -> None:
+    canvas = unit_canvas()
+    canvas.circle((5, 5), 3, BLACK)
+    expected = canvas.image()
+    frame = canvas.finish()
+    assert np.array_equal(frame, expected)
+    assert np.all(canvas.image() == 255)  # cleared
+    canvas.circle((5, 5), 3, BLACK)
+    again = canvas.finish()
+    assert again is not frame and np.array_equal(again, expected)  # the first frame is untouched
+    frame[:] = 7
+    assert np.all(canvas.image() == 255)
+
+
+def test_kept_background_is_restored() -> None:
+    canvas = unit_canvas()
+    canvas.polygon(rectangle_vertices(0, 0, 10, 5, 0), BLACK)
+    canvas.keep_as_background()
+    canvas.circle((5, 8), 1, (0, 0, 255))
+    canvas.clear()
+    img = canvas.image()
+    assert np.all(img[5:] == 0) and np.all(img[:5] == 255)
+    canvas.circle((5, 8), 1, (0, 0, 255))
+    canvas.finish()
+    assert np.array_equal(canvas.image(), img)
+
+
 def test_clear_restores_the_background() -> None:
     canvas = unit_canvas()
     canvas.circle((5, 5), 3, BLACK)

@@ -61,17 +61,41 @@ OPEN = action(gripper=1.0)
 
 
 def move_ee(
-    env: Kinematic3DEnv, state: ObjectCentricState, ee_pos: np.ndarray
+    env: Kinematic3DEnv,
+    state: ObjectCentricState,
+    ee_pos: np.ndarray,
+    cartesian_step: float = 0.05,
 ) -> ObjectCentricState:
-    """Step the env (from ``state``) with joint deltas that bring the end effector to ``ee_pos``.
+    """Step the env (from ``state``) so the end effector moves in a straight line to ``ee_pos``.
 
-    Large moves are split into steps within the action bound.
+    The line is cut into waypoints ``cartesian_step`` apart; each is solved with IK from the
+    previous joints (intermediate waypoints the arm cannot reach are skipped) and reached with
+    joint deltas within the action bound.
     """
     env.set_state(state)
-    target = arm_for(env, state, ee_pos)
-    delta = (target - state[env.robot][3:10] + np.pi) % (2 * np.pi) - np.pi
+    start, _ = env.ee_pose(state)
+    goal = np.asarray(ee_pos, dtype=float)
+    n_way = max(1, int(np.ceil(np.linalg.norm(goal - start) / cartesian_step)))
     bound = env.config.max_action_mag
-    n = max(1, int(np.ceil(np.max(np.abs(delta)) / bound)))
-    for _ in range(n):
-        state, *_ = env.step(action(joints=delta / n))
+    for k in range(1, n_way + 1):
+        waypoint = start + (goal - start) * k / n_way
+        if k < n_way:
+            robot = state[env.robot]
+            result = _ik().solve(
+                waypoint,
+                DOWN,
+                base_pose=(float(robot[0]), float(robot[1]), float(robot[2])),
+                initial_arm_joints=robot[3:10],
+                base_z=env.config.base_z,
+                restarts=0,
+            )
+            if not result.success:  # skip waypoints the arm cannot reach pointing down
+                continue
+            target = result.arm_joints
+        else:
+            target = arm_for(env, state, waypoint)
+        delta = (target - state[env.robot][3:10] + np.pi) % (2 * np.pi) - np.pi
+        n = max(1, int(np.ceil(np.max(np.abs(delta)) / bound)))
+        for _ in range(n):
+            state, *_ = env.step(action(joints=delta / n))
     return state

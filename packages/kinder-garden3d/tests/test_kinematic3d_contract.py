@@ -12,7 +12,11 @@ import pytest
 
 import kinder_core
 import kinder_garden3d  # noqa: F401  (registers the ids)
-from kinder_core.testing import check_cross_process_determinism, check_kinder_env
+from kinder_core.testing import (
+    check_cross_process_determinism,
+    check_kinder_env,
+    check_vector_consistency,
+)
 
 KINEMATIC3D_IDS = kinder_core.list_envs("Kinematic3D")
 
@@ -69,6 +73,26 @@ def test_action_magnitudes_follow_the_spec():
 @pytest.mark.parametrize("env_id", ["kinder/Obstruction3D-o2-v0", "kinder/Transport3D-o2-v0"])
 def test_cross_process_determinism(env_id):
     check_cross_process_determinism(env_id)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("env_id", KINEMATIC3D_IDS)
+def test_cross_process_determinism_every_id(env_id):
+    check_cross_process_determinism(env_id)
+
+
+@pytest.mark.parametrize(
+    "env_id",
+    [
+        "kinder/BaseMotion3D-v0",
+        "kinder/Obstruction3D-o1-v0",
+        "kinder/Packing3D-p2-v0",
+        "kinder/Table3D-o2-v0",
+        "kinder/Transport3D-o1-v0",
+    ],
+)
+def test_sync_and_async_vector_envs_agree(env_id):
+    check_vector_consistency(env_id)
 
 
 def test_importing_the_package_loads_no_simulator():

@@ -5,6 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import kinder_core
+import kinder_garden3d  # noqa: F401  (registers the ids)
+
 from kinder_garden3d.kinematic3d.base_motion3d import BaseMotion3DEnv
 from kinder_garden3d.kinematic3d.obstruction3d import Obstruction3DEnv
 from kinder_garden3d.kinematic3d.packing3d import Packing3DEnv
@@ -74,3 +77,18 @@ def test_same_seed_same_state_in_fresh_instances():
         assert np.array_equal(a.box_space.vectorize(sa), b.box_space.vectorize(sb))
         a.close()
         b.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("env_id", kinder_core.list_envs("Kinematic3D"))
+def test_every_variant_resets_validly_over_300_seeds(env_id):
+    env = kinder_core.make_object_centric(env_id)
+    try:
+        for seed in range(300):
+            state, _ = env.reset(seed=seed)
+            assert not env.goal_reached(state), f"{env_id} seed {seed} is solved"
+            assert env.penetrations(state) == [], f"{env_id} seed {seed}"
+            for name in env.movable_names(state):
+                assert abs(env.support_gap(state, name)) < 1e-6, f"{env_id} seed {seed}: {name}"
+    finally:
+        env.close()

@@ -1,1 +1,60 @@
-"""kinder-bench."""
+"""KinDERBench: agents, the evaluation runner, metrics and reports, and the ``kinder`` CLI.
+
+>>> from kinder_bench import RunConfig, run_benchmark, write_report
+>>> out = run_benchmark([RunConfig("kinder/Motion2D-p0-v0", "mpc", seeds=(0,), episodes=2)],
+...                     "runs/example")                                   # doctest: +SKIP
+>>> print(write_report(["runs/example"])[0])                              # doctest: +SKIP
+"""
+
+from kinder_bench.agents import (
+    AGENTS,
+    Agent,
+    AgentFailure,
+    MPCAgent,
+    MPCArgs,
+    NoArgs,
+    RandomAgent,
+    agent_class,
+    make_agent,
+    register_agent,
+)
+from kinder_bench.metrics import Stat, Summary, aggregate, summarize
+from kinder_bench.report import csv_table, markdown_table, write_report
+from kinder_bench.results import load_records
+from kinder_bench.runner import (
+    BenchOutcome,
+    EpisodeTask,
+    RunConfig,
+    episode_seeds,
+    run_benchmark,
+    run_episode,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "AGENTS",
+    "Agent",
+    "AgentFailure",
+    "BenchOutcome",
+    "EpisodeTask",
+    "MPCAgent",
+    "MPCArgs",
+    "NoArgs",
+    "RandomAgent",
+    "RunConfig",
+    "Stat",
+    "Summary",
+    "agent_class",
+    "aggregate",
+    "csv_table",
+    "episode_seeds",
+    "load_records",
+    "make_agent",
+    "markdown_table",
+    "register_agent",
+    "run_benchmark",
+    "run_episode",
+    "summarize",
+    "write_report",
+]

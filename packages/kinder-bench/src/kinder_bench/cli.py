@@ -229,7 +229,13 @@ def rollout(
 
 @bench_app.command("run")
 def bench_run(
-    env: Annotated[list[str], typer.Option("--env", "-e", help="Environment id. Repeatable.")],
+    env: Annotated[
+        list[str] | None, typer.Option("--env", "-e", help="Environment id. Repeatable.")
+    ] = None,
+    suite: Annotated[
+        str | None,
+        typer.Option(help="'paper': the paper's eight benchmark envs (those installed)."),
+    ] = None,
     agent: Annotated[
         list[str] | None, typer.Option("--agent", "-a", help="Agent name. Repeatable.")
     ] = None,
@@ -237,7 +243,10 @@ def bench_run(
     seeds: Annotated[str, typer.Option(help="Run seeds: '0-4' or '0,1,2'.")] = "0-4",
     episodes: Annotated[int, typer.Option(help="Episodes per seed.")] = 50,
     max_steps: Annotated[
-        int | None, typer.Option(help="Step budget per episode (default: the env's).")
+        int | None,
+        typer.Option(
+            help="Step budget per episode (default: the paper's for its envs, else the env's)."
+        ),
     ] = None,
     out: Annotated[Path, typer.Option(help="Run directory (reruns resume it).")] = Path(
         "runs/bench"
@@ -263,13 +272,18 @@ def bench_run(
     from kinder_bench.runner import RunConfig, run_benchmark
 
     mods = _import(imports)
+    envs_ = list(env or []) + _suite_envs(suite)
+    if not envs_:
+        fail("give at least one --env (or --suite paper)")
     agents_ = agent or ["random"]
     if executor not in EXECUTORS:
         fail(f"--executor {executor!r}: expected one of {list(EXECUTORS)}")
     per_agent = parse_agent_args(args, agents_)
     seed_list = parse_seeds(seeds)
     runs = [
-        RunConfig(e, a, per_agent[a], seed_list, episodes, max_steps) for e in env for a in agents_
+        RunConfig(e, a, per_agent[a], seed_list, episodes, max_steps)
+        for e in envs_
+        for a in agents_
     ]
     with user_errors():
         outcome = run_benchmark(
@@ -289,6 +303,21 @@ def bench_run(
     )
     if report:
         _report([out], out, plot=True)
+
+
+def _suite_envs(suite: str | None) -> list[str]:
+    if suite is None:
+        return []
+    if suite != "paper":
+        fail(f"--suite {suite!r}: the only suite is 'paper'")
+    from kinder_bench.envs import known_env_ids
+    from kinder_bench.protocol import PAPER_ENVS
+
+    known = set(known_env_ids())
+    missing = [e for e in PAPER_ENVS if e not in known]
+    if missing:
+        typer.echo(f"--suite paper: skipping envs that are not installed: {missing}", err=True)
+    return [e for e in PAPER_ENVS if e in known]
 
 
 def _report(run_dirs: list[Path], out: Path | None, plot: bool) -> None:

@@ -159,7 +159,12 @@ def plot_success(summaries: Sequence[Summary], path: Path | str) -> Path:
     fig, ax = plt.subplots(figsize=(max(4.0, 1.6 * len(envs) * max(1, len(methods)) ** 0.5), 3.2))
     for i, m in enumerate(methods):
         means = [np.nan if (e, m) not in cell else (cell[(e, m)].success.mean or 0.0) for e in envs]
-        errs = [(cell[(e, m)].success.std or 0.0) if (e, m) in cell else 0.0 for e in envs]
+        stds = [(cell[(e, m)].success.std or 0.0) if (e, m) in cell else 0.0 for e in envs]
+        # Error bars clipped to [0, 1]: a success rate cannot leave it.
+        errs = [
+            [0.0 if np.isnan(mu) else min(sd, mu) for sd, mu in zip(stds, means)],
+            [0.0 if np.isnan(mu) else min(sd, 1.0 - mu) for sd, mu in zip(stds, means)],
+        ]
         ax.bar(
             x + (i - (len(methods) - 1) / 2) * width, means, width, yerr=errs, capsize=3, label=m
         )

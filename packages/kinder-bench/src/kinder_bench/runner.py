@@ -33,6 +33,7 @@ import numpy as np
 from kinder_bench.agents import agent_class, args_to_dict, make_agent, make_args
 from kinder_bench.envs import default_max_steps, make_env, resolve_env_id, short_id
 from kinder_bench.executors import execute
+from kinder_bench.protocol import PAPER_EPISODES, PAPER_MAX_STEPS, PAPER_SEEDS
 from kinder_bench.recording import VIDEO_FORMATS, write_video
 from kinder_bench.results import (
     CONFIG_FILE,
@@ -59,12 +60,13 @@ class RunConfig:
     """An agent name (``random``, ``mpc``, ...) or a ``module:Class`` entry point."""
     agent_args: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     """Overrides of the agent's ``Args`` defaults."""
-    seeds: tuple[int, ...] = (0, 1, 2, 3, 4)
+    seeds: tuple[int, ...] = PAPER_SEEDS
     """Run seeds; each fixes its episodes' instances (the paper: 5 seeds)."""
-    episodes: int = 50
+    episodes: int = PAPER_EPISODES
     """Episodes per seed (the paper: 50)."""
     max_steps: int | None = None
-    """Step budget per episode; None: the env's registered ``max_episode_steps``."""
+    """Step budget per episode; None: the paper's budget for its eight benchmark envs
+    (:data:`~kinder_bench.protocol.PAPER_MAX_STEPS`), else the env's ``max_episode_steps``."""
     label: str | None = None
     """The method's name in reports; None: the agent name."""
 
@@ -144,7 +146,9 @@ def resolve_run(config: RunConfig) -> ResolvedRun:
     env_id = resolve_env_id(config.env_id)
     cls = agent_class(config.agent)
     args = args_to_dict(make_args(cls, config.agent_args))
-    max_steps = config.max_steps if config.max_steps is not None else default_max_steps(env_id)
+    max_steps = config.max_steps
+    if max_steps is None:
+        max_steps = PAPER_MAX_STEPS.get(env_id) or default_max_steps(env_id)
     if max_steps <= 0 or config.episodes <= 0 or not config.seeds:
         raise ValueError(
             f"A run needs max_steps > 0, episodes > 0 and at least one seed; got {config}"

@@ -20,14 +20,16 @@ Example::
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 Color = tuple[int, int, int]
+F32 = NDArray[np.float32]
 # A signed distance function: (x, y) flat arrays → distance to the boundary, positive inside.
-_SDF = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
+_SDF = Callable[[F32, F32], F32]
 
 
 def rectangle_vertices(
@@ -70,7 +72,7 @@ def _polygon_sdf(vertices: NDArray[np.float64]) -> _SDF:
         slope = dx / dy if dy != 0.0 else 0.0
         edges.append((float(ax), float(ay), float(by), dx, dy, inv_len2, slope))
 
-    def sdf(px: NDArray[np.float64], py: NDArray[np.float64]) -> NDArray[np.float64]:
+    def sdf(px: F32, py: F32) -> F32:
         shape = np.broadcast_shapes(px.shape, py.shape)
         dist2 = np.full(shape, np.inf)
         inside = np.zeros(shape, dtype=bool)
@@ -85,7 +87,7 @@ def _polygon_sdf(vertices: NDArray[np.float64]) -> _SDF:
                 crosses = ((ay > py) != (by > py)) & (px < ax + apy * slope)
                 np.logical_xor(inside, crosses, out=inside)
         dist = np.sqrt(dist2)
-        out: NDArray[np.float64] = np.where(inside, dist, -dist)
+        out: F32 = np.where(inside, dist, -dist).astype(np.float32)
         return out
 
     return sdf
@@ -98,24 +100,29 @@ def _convex_sdf(vertices: list[list[float]]) -> _SDF:
     Exact inside and on the boundary; outside it never exceeds the true distance, so it
     classifies "wholly outside" pixels conservatively, and its sign is exact.
     """
-    edges = []
+    normals = []
     n = len(vertices)
     for i in range(n):
         ax, ay = vertices[i]
         bx, by = vertices[(i + 1) % n]
-        length = float(np.hypot(bx - ax, by - ay))
-        if length == 0.0:
-            continue
-        nx, ny = -(by - ay) / length, (bx - ax) / length  # inward unit normal
-        edges.append((nx, ny, nx * ax + ny * ay))
+        length = math.hypot(bx - ax, by - ay)
+        if length > 0.0:
+            nx, ny = -(by - ay) / length, (bx - ax) / length  # inward unit normal
+            normals.append((nx, ny, nx * ax + ny * ay))
+    e = np.array(normals, dtype=np.float32)
+    enx, eny, off = e[:, 0:1], e[:, 1:2], e[:, 2:3]
 
-    def sdf(px: NDArray[np.float64], py: NDArray[np.float64]) -> NDArray[np.float64]:
-        # One pass per edge: numpy reduces a short trailing axis slowly.
-        nx, ny, o = edges[0]
-        out: NDArray[np.float64] = px * nx + py * ny - o
-        for nx, ny, o in edges[1:]:
-            np.minimum(out, px * nx + py * ny - o, out=out)
-        return out
+    def sdf(px: F32, py: F32) -> F32:
+        if px.ndim == 2 and px.shape[0] == 1 and py.shape[1] == 1:
+            # Pixel grid (a row of x, a column of y): per-edge rows and columns, one full-size
+            # sum, and a minimum over the leading (edge) axis.
+            rows = enx * px - off  # (edges, w)
+            cols = eny * py.reshape(1, -1)  # (edges, h)
+            out: F32 = np.min(rows[:, None, :] + cols[:, :, None], axis=0)
+            return out
+        flat = enx * px.reshape(1, -1) + eny * py.reshape(1, -1) - off
+        res: F32 = np.min(flat, axis=0).reshape(np.broadcast_shapes(px.shape, py.shape))
+        return res
 
     return sdf
 
@@ -137,14 +144,31 @@ def _orientation(vertices: list[list[float]]) -> tuple[bool, float]:
 
 
 def _circle_sdf(cx: float, cy: float, radius: float) -> _SDF:
-    def sdf(px: NDArray[np.float64], py: NDArray[np.float64]) -> NDArray[np.float64]:
-        out: NDArray[np.float64] = radius - np.hypot(px - cx, py - cy)
+    def sdf(px: F32, py: F32) -> F32:
+        dx = px - np.float32(cx)
+        dy = py - np.float32(cy)
+        out: F32 = np.float32(radius) - np.sqrt(dx * dx + dy * dy)
         return out
 
     return sdf
 
 
 ANTIALIAS_MODES = ("supersample", "analytic", "none")
+
+
+def _blend(f: F32, color: tuple[float, float, float], weight: F32) -> F32:
+    """``f + (color − f)·weight`` in place, for ``f`` of shape (h, 3w) (interleaved RGB rows)
+    and ``weight`` of shape (h, w).
+
+    Rows stay long and contiguous: broadcasting over a trailing axis of length 3 would make
+    numpy loop in steps of three.
+    """
+    row = np.tile(np.asarray(color, dtype=np.float32), weight.shape[1])
+    keep = np.repeat(np.float32(1.0) - weight, 3, axis=1)
+    f -= row
+    f *= keep
+    f += row
+    return f
 
 
 class Canvas:
@@ -199,12 +223,15 @@ class Canvas:
         self._buf[:] = np.round(bg).astype(np.uint8)
         self._background = self._buf.copy()
         # World coordinates of the pixel centres along each axis.
-        self._xs = np.asarray(xmin + (np.arange(self.width) + 0.5) * self._px_w, np.float64)
-        self._ys = np.asarray(ymax - (np.arange(self.height) + 0.5) * self._px_h, np.float64)
+        self._xs = np.asarray(xmin + (np.arange(self.width) + 0.5) * self._px_w, np.float32)
+        self._ys = np.asarray(ymax - (np.arange(self.height) + 0.5) * self._px_h, np.float32)
         k = (np.arange(self.supersample) + 0.5) / self.supersample - 0.5
         ox, oy = np.meshgrid(k * self._px_w, k * self._px_h)
-        self._sub_dx = ox.reshape(-1)
-        self._sub_dy = oy.reshape(-1)
+        self._sub_dx = ox.reshape(-1).astype(np.float32)
+        self._sub_dy = oy.reshape(-1).astype(np.float32)
+        # True once finish() handed the buffer itself to the caller: the canvas then starts over
+        # from a copy of the background.
+        self._handed_out = False
 
     # -- primitives -----------------------------------------------------------------------------
     def polygon(
@@ -218,16 +245,17 @@ class Canvas:
         """A filled polygon (``(N, 2)`` world coordinates, convex or simple), with an optional
         outline: a band of ``outline_width`` world units just inside its boundary."""
         v = np.asarray(vertices, dtype=np.float64)
-        if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3 or not np.isfinite(v).all():
-            raise ValueError(
-                f"polygon vertices must be a finite (N, 2) array with N >= 3, got shape {v.shape}"
-            )
+        if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3:
+            raise ValueError(f"polygon vertices must be an (N, 2) array with N >= 3, got {v.shape}")
         vl = v.tolist()
+        xs, ys = [p[0] for p in vl], [p[1] for p in vl]
+        lo, hi = (min(xs), min(ys)), (max(xs), max(ys))
+        if not math.isfinite(sum(xs) + sum(ys)):
+            raise ValueError(f"polygon vertices must be finite, got {vl}")
         convex, area = _orientation(vl)
         if area == 0.0:
             return
         sdf = _convex_sdf(vl if area > 0 else vl[::-1]) if convex else _polygon_sdf(v)
-        lo, hi = v.min(axis=0), v.max(axis=0)
         self._draw(sdf, lo, hi, fill, alpha, outline, outline_width)
 
     def circle(
@@ -247,8 +275,8 @@ class Canvas:
         if not (np.isfinite(radius) and radius >= 0):
             raise ValueError(f"circle radius must be finite and >= 0, got {radius!r}")
         sdf = _circle_sdf(float(c[0]), float(c[1]), float(radius))
-        lo, hi = c - radius, c + radius
-        self._draw(sdf, lo, hi, fill, alpha, outline, outline_width)
+        x, y, r = float(c[0]), float(c[1]), float(radius)
+        self._draw(sdf, (x - r, y - r), (x + r, y + r), fill, alpha, outline, outline_width)
 
     def line(
         self,
@@ -275,25 +303,43 @@ class Canvas:
     def clear(self) -> None:
         """Restore the background (the background colour, or what :meth:`keep_as_background`
         kept). Reuses the buffer, so redrawing frames on one canvas avoids reallocating it."""
-        np.copyto(self._buf, self._background)
+        if self._handed_out:
+            self._buf = self._background.copy()
+            self._handed_out = False
+        else:
+            np.copyto(self._buf, self._background)
 
     def keep_as_background(self) -> None:
         """Make the current picture the background that :meth:`clear` restores (for drawing
         constant scenery once and reusing it every frame)."""
-        np.copyto(self._background, self._buf)
+        np.copyto(self._background, self._own_buffer())
 
     def image(self) -> NDArray[np.uint8]:
         """The current picture as a fresh ``(H, W, 3)`` uint8 array."""
-        out: NDArray[np.uint8] = self._buf.copy()
+        out: NDArray[np.uint8] = self._own_buffer().copy()
         return out
+
+    def finish(self) -> NDArray[np.uint8]:
+        """The current picture as a fresh ``(H, W, 3)`` uint8 array, handing over the canvas's
+        own buffer instead of copying it; the canvas is left cleared. (``image()`` then
+        ``clear()`` in one step, for drawing frame after frame.)"""
+        out = self._own_buffer()
+        self._handed_out = True
+        return out
+
+    def _own_buffer(self) -> NDArray[np.uint8]:
+        if self._handed_out:
+            self._buf = self._background.copy()
+            self._handed_out = False
+        return self._buf
 
     # -- internals ------------------------------------------------------------------------------
     def _coverage(
         self,
         sdf: _SDF,
-        sd: NDArray[np.float64],
-        xs: NDArray[np.float64],
-        ys: NDArray[np.float64],
+        sd: F32,
+        xs: F32,
+        ys: F32,
         offset: float,
     ) -> NDArray[np.float32]:
         """Per-pixel coverage of ``{sdf >= offset}`` given ``sd`` at the pixel centres: 0 or 1
@@ -302,7 +348,11 @@ class Canvas:
         if self.antialias == "analytic":
             # Straight-edge approximation: the fraction of a pixel on the inner side of a line
             # at signed distance s from its centre is about s / pixel + 1/2.
-            return np.clip(s * self._inv_px + 0.5, 0.0, 1.0).astype(np.float32)
+            cov: F32 = s * np.float32(self._inv_px)
+            cov += np.float32(0.5)
+            np.maximum(cov, np.float32(0.0), out=cov)
+            np.minimum(cov, np.float32(1.0), out=cov)
+            return cov
         if self.antialias == "none":
             return (s >= 0.0).astype(np.float32)
         hd = self._half_diag
@@ -323,8 +373,8 @@ class Canvas:
     def _draw(
         self,
         sdf: _SDF,
-        lo: NDArray[np.float64],
-        hi: NDArray[np.float64],
+        lo: tuple[float, float],
+        hi: tuple[float, float],
         fill: Color,
         alpha: float,
         outline: Color | None = None,
@@ -351,19 +401,19 @@ class Canvas:
         ys = self._ys[i0:i1]
         # Pixel centres broadcast as a row of x and a column of y: sd has shape (rows, cols).
         sd = sdf(xs[None, :], ys[:, None])
-        region = self._buf[i0:i1, j0:j1]
-        f = region.astype(np.float32)
+        # The region as (rows, 3·cols): a view, since each row's pixels are contiguous.
+        rows = self._own_buffer()[i0:i1, j0:j1].reshape(i1 - i0, 3 * (j1 - j0))
         cov = self._coverage(sdf, sd, xs, ys, 0.0)
+        if alpha != 1.0:
+            cov *= np.float32(alpha)
         if has_outline:
             inner = self._coverage(sdf, sd, xs, ys, float(outline_width))
             if alpha != 1.0:
-                cov *= np.float32(alpha)
                 inner *= np.float32(alpha)
-            f += (np.asarray(outline_rgb, np.float32) - f) * cov[:, :, None]
-            f += (np.asarray(fill_rgb, np.float32) - f) * inner[:, :, None]
+            # Outline over the whole shape, then the fill over its inner part.
+            f = _blend(rows.astype(np.float32), outline_rgb, cov)
+            f = _blend(f, fill_rgb, inner)
         else:
-            if alpha != 1.0:
-                cov *= np.float32(alpha)
-            f += (np.asarray(fill_rgb, np.float32) - f) * cov[:, :, None]
-        f += 0.5
-        region[...] = f
+            f = _blend(rows.astype(np.float32), fill_rgb, cov)
+        f += np.float32(0.5)
+        rows[...] = f

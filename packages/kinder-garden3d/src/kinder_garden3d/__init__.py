@@ -11,3 +11,7 @@ from kinder_garden3d.kinematic3d.registry import register_kinematic3d
 register_kinematic3d()
 
 __all__ = ["register_kinematic3d"]
+
+from kinder_garden3d.dynamic3d.registration import register_dynamic3d  # noqa: E402
+
+register_dynamic3d()

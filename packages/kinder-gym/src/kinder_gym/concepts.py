@@ -17,7 +17,6 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Union
 
 from kinder_core import Object, ObjectCentricState, Type
 
@@ -40,7 +39,7 @@ class Variable:
         return f"{self.name}:{self.type.name}"
 
 
-Entity = Union[Object, Variable]
+Entity = Object | Variable
 
 
 def is_instance(entity: Entity, type_: Type) -> bool:
@@ -159,7 +158,7 @@ class _Atom:
 class GroundAtom(_Atom):
     """A predicate applied to objects."""
 
-    entities: tuple[Object, ...]  # type: ignore[assignment]
+    entities: tuple[Object, ...]
 
     @property
     def objects(self) -> tuple[Object, ...]:
@@ -179,7 +178,7 @@ class GroundAtom(_Atom):
 class LiftedAtom(_Atom):
     """A predicate applied to variables."""
 
-    entities: tuple[Variable, ...]  # type: ignore[assignment]
+    entities: tuple[Variable, ...]
 
     @property
     def variables(self) -> tuple[Variable, ...]:

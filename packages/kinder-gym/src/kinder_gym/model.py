@@ -17,7 +17,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, Type
-
 from kinder_gym.concepts import GroundAtom, Predicate, abstract_state
 from kinder_gym.operators import (
     GroundOperator,

@@ -257,7 +257,15 @@ def _plan(
     with _quiet_ompl():
         for attempt in range(attempts):
             path = _rrt_connect(
-                kind, q0, q1, is_valid, lo, hi, resolution, seed + attempt, timeout,
+                kind,
+                q0,
+                q1,
+                is_valid,
+                lo,
+                hi,
+                resolution,
+                seed + attempt,
+                timeout,
                 max_iterations,
             )
             if path is None:
@@ -299,8 +307,19 @@ def plan_se2(
     """
     (x0, x1), (y0, y1) = bounds
     return _plan(
-        "se2", start, goal, is_valid, [x0, y0, -math.pi], [x1, y1, math.pi], max_step, (2,),
-        seed, timeout, max_iterations, attempts, shortcut_iterations,
+        "se2",
+        start,
+        goal,
+        is_valid,
+        [x0, y0, -math.pi],
+        [x1, y1, math.pi],
+        max_step,
+        (2,),
+        seed,
+        timeout,
+        max_iterations,
+        attempts,
+        shortcut_iterations,
     )
 
 
@@ -325,6 +344,17 @@ def plan_joint_space(
     lo = np.asarray(lower, dtype=np.float64)
     ms = np.broadcast_to(np.asarray(max_step, dtype=np.float64), lo.shape)
     return _plan(
-        "rn", start, goal, is_valid, lo, upper, ms, (), seed, timeout, max_iterations, attempts,
+        "rn",
+        start,
+        goal,
+        is_valid,
+        lo,
+        upper,
+        ms,
+        (),
+        seed,
+        timeout,
+        max_iterations,
+        attempts,
         shortcut_iterations,
     )

@@ -16,7 +16,6 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 from kinder_core import Object, Type
-
 from kinder_gym.concepts import (
     GroundAtom,
     LiftedAtom,

@@ -31,9 +31,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
-from kinder_core import Object, ObjectCentricState
 from numpy.typing import NDArray
 
+from kinder_core import Object, ObjectCentricState
 from kinder_gym.operators import GroundOperator, LiftedOperator
 
 FloatArray = NDArray[np.float64]

@@ -12,10 +12,10 @@ from collections.abc import Sequence
 
 import numpy as np
 from gymnasium import spaces
-from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, ObjectCentricStateSpace, Type
-from kinder_core.state import FloatArray
 from numpy.typing import NDArray
 
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, ObjectCentricStateSpace, Type
+from kinder_core.state import FloatArray
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.operators import LiftedOperator
@@ -93,8 +93,9 @@ class ToyPlaceEnv(ObjectCentricEnv):
             b = held[0]
             if not any(blocks_overlap(state, b, o) for o in self.blocks if o != b):
                 state.set(b, "held", 0.0)
-        state.set(self.robot, "grip", 1.0 if any(state.get(b, "held") > 0.5 for b in self.blocks)
-                  else 0.0)
+        state.set(
+            self.robot, "grip", 1.0 if any(state.get(b, "held") > 0.5 for b in self.blocks) else 0.0
+        )
         return state
 
     def goal_reached(self, state: ObjectCentricState) -> bool:
@@ -133,7 +134,10 @@ R = Variable("?robot", ROBOT)
 B = Variable("?block", BLOCK)
 G = Variable("?region", REGION)
 PICK = LiftedOperator(
-    "Pick", (R, B), frozenset({HandEmpty.lift([R])}), frozenset({Holding.lift([R, B])}),
+    "Pick",
+    (R, B),
+    frozenset({HandEmpty.lift([R])}),
+    frozenset({Holding.lift([R, B])}),
     frozenset({HandEmpty.lift([R])}),
 )
 PLACE_IN = LiftedOperator(
@@ -202,9 +206,11 @@ class PlaceController(_MoveThenGrip):
         block = self.objects[1]
         x = float(self.params[0])
         for other in self.state.get_objects(BLOCK):
-            if other != block and abs(self.state.get(other, "x") - x) < (
-                self.state.get(other, "width") + self.state.get(block, "width")
-            ) / 2:
+            if (
+                other != block
+                and abs(self.state.get(other, "x") - x)
+                < (self.state.get(other, "width") + self.state.get(block, "width")) / 2
+            ):
                 raise SkillFailure(f"releasing {block.name} at x={x:.3f} overlaps {other.name}")
         return x
 

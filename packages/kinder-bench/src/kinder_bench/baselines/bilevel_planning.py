@@ -17,6 +17,8 @@ Planning from a state ``x0``:
    :class:`~kinder_gym.skills.SkillFailure`) draw the next sample, and when all fail, backtrack to
    step ``i − 1``. A rollout that reaches the env's goal ends the plan early, and the last step
    must reach the env's goal (not just the goal atoms).
+4. When every abstract plan (at most ``max_abstract_plans``) failed, refine the same plans again
+   with fresh samples, up to ``refinement_rounds`` rounds in all (upstream: one round).
 
 The refined plan is a list of actions, executed from the agent's :meth:`act`. Execution is
 monitored: the agent remembers the state each action was planned from and, when the observed state
@@ -37,12 +39,6 @@ from typing import Any
 
 import gymnasium
 import numpy as np
-from kinder_core import ObjectCentricEnv, ObjectCentricState
-from kinder_gym.concepts import GroundAtom
-from kinder_gym.model import PlanningModel
-from kinder_gym.operators import GroundOperator
-from kinder_gym.models import create_model
-from kinder_gym.skills import SkillFailure, execute_skill
 from numpy.typing import NDArray
 
 from kinder_bench.agents.base import Agent, AgentFailure
@@ -52,6 +48,12 @@ from kinder_bench.baselines.bilevel_search import (
     AbstractPlan,
     abstract_plans,
 )
+from kinder_core import ObjectCentricEnv, ObjectCentricState
+from kinder_gym.concepts import GroundAtom
+from kinder_gym.model import PlanningModel
+from kinder_gym.models import create_model
+from kinder_gym.operators import GroundOperator
+from kinder_gym.skills import SkillFailure, execute_skill
 
 FloatArray = NDArray[np.float64]
 
@@ -76,6 +78,9 @@ class BilevelPlanningArgs:
     """Absolute tolerance on every feature when comparing observed and planned states."""
     max_replans: int = 5
     """Planning calls per episode after the first (divergence or plan exhausted)."""
+    refinement_rounds: int = 3
+    """Rounds of refinement over the abstract plans found (each with fresh samples); 1 is the
+    upstream behaviour (each abstract plan is refined once)."""
 
     def __post_init__(self) -> None:
         checks = [
@@ -86,6 +91,7 @@ class BilevelPlanningArgs:
             (self.planning_timeout > 0, "planning_timeout must be > 0"),
             (self.divergence_atol >= 0, "divergence_atol must be >= 0"),
             (self.max_replans >= 0, "max_replans must be >= 0"),
+            (self.refinement_rounds >= 1, "refinement_rounds must be >= 1"),
         ]
         for ok, msg in checks:
             if not ok:
@@ -109,6 +115,7 @@ class PlanningStats:
     """Counters of one planning call (for analysis and tests)."""
 
     abstract_plans: int = 0
+    refinement_retries: int = 0
     skill_samples: int = 0
     skill_failures: int = 0
     abstract_mismatches: int = 0
@@ -151,8 +158,10 @@ class BilevelPlanner:
         plans = abstract_plans(
             s0, goal, ops, rng, args.search, args.max_abstract_plans, deadline, heuristic=heuristic
         )
+        tried: list[AbstractPlan] = []
         for plan in plans:
             self.stats.abstract_plans += 1
+            tried.append(plan)
             try:
                 refined = self._refine(plan, x0, rng, deadline)
             except _Timeout:
@@ -162,6 +171,17 @@ class BilevelPlanner:
                 return refined
             if self.stats.abstract_plans >= args.max_abstract_plans:
                 break
+        # Further rounds over the same abstract plans with fresh samples.
+        for _ in range(args.refinement_rounds - 1):
+            for plan in tried:
+                self.stats.refinement_retries += 1
+                try:
+                    refined = self._refine(plan, x0, rng, deadline)
+                except _Timeout:
+                    self.stats.timed_out = True
+                    return None
+                if refined is not None:
+                    return refined
         if time.perf_counter() > deadline:
             self.stats.timed_out = True
         return None
@@ -178,22 +198,24 @@ class BilevelPlanner:
         skills: list[tuple[str, FloatArray, int]] = []
         ops = list(plan.operators)
         if not ops:
-            return RefinedPlan(states, actions, plan, skills) if self.model.env.goal_reached(
-                x0
-            ) else None
+            return (
+                RefinedPlan(states, actions, plan, skills)
+                if self.model.env.goal_reached(x0)
+                else None
+            )
         if self._refine_from(ops, plan.states[0], x0, rng, deadline, states, actions, skills):
             return RefinedPlan(states, actions, plan, skills)
         return None
 
-    def _accept(
-        self, reached: frozenset[GroundAtom], expected: frozenset[GroundAtom]
-    ) -> bool:
+    def _accept(self, reached: frozenset[GroundAtom], expected: frozenset[GroundAtom]) -> bool:
         """Exact match, or extra atoms of the model's monotone predicates only."""
         if reached == expected:
             return True
         monotone = self.model.monotone_predicates
-        return bool(monotone) and expected <= reached and all(
-            a.predicate.name in monotone for a in reached - expected
+        return (
+            bool(monotone)
+            and expected <= reached
+            and all(a.predicate.name in monotone for a in reached - expected)
         )
 
     def _refine_from(
@@ -222,7 +244,11 @@ class BilevelPlanner:
             try:
                 params = gs.controller.sample_parameters(x, rng)
                 rollout = execute_skill(
-                    gs.controller, x, params, model.env.transition, self.horizon,
+                    gs.controller,
+                    x,
+                    params,
+                    model.env.transition,
+                    self.horizon,
                     deadline=deadline,
                 )
             except SkillFailure:
@@ -272,6 +298,11 @@ def _drop_noops(
 
 # One model per env instance: building one can be costly and the runner reuses envs.
 _MODELS: weakref.WeakKeyDictionary[ObjectCentricEnv, PlanningModel] = weakref.WeakKeyDictionary()
+
+
+def use_model(env: ObjectCentricEnv, model: PlanningModel) -> None:
+    """Plan on ``env`` with ``model`` instead of its family's model (e.g. a custom env)."""
+    _MODELS[env] = model
 
 
 def model_for(env: ObjectCentricEnv) -> PlanningModel:
@@ -328,10 +359,9 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
             raise AgentFailure(f"{self.name}: act() before reset()")
         state = self.observed_state(obs)
         plan = self._plan
-        if self._t >= len(plan.actions):
-            self._replan(state)
-        elif self.args.replan_on_divergence and not _close(
-            state, plan.states[self._t], self.args.divergence_atol
+        if self._t >= len(plan.actions) or (
+            self.args.replan_on_divergence
+            and not _close(state, plan.states[self._t], self.args.divergence_atol)
         ):
             self._replan(state)
         plan = self._plan
@@ -373,4 +403,5 @@ __all__: Sequence[str] = [
     "RefinedPlan",
     "model_for",
     "plan_episode",
+    "use_model",
 ]

@@ -23,6 +23,7 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
 from kinder_gym.concepts import GroundAtom
 from kinder_gym.operators import GroundOperator
 
@@ -220,9 +221,9 @@ def abstract_plans(
         _, _, _, _, node = heapq.heappop(open_list)
         if goal <= node.atoms:
             plan = node.path()
-            key = tuple(o.name for o in plan.operators)
-            if key not in emitted:
-                emitted.add(key)
+            names = tuple(o.name for o in plan.operators)
+            if names not in emitted:
+                emitted.add(names)
                 yield plan
             continue
         count = expansions.get(node.atoms, 0)

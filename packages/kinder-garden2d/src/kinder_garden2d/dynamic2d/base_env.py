@@ -55,8 +55,8 @@ class Dynamic2DConfig:
     gravity: float = -9.8
     damping: float = 1.0  # pymunk: fraction of velocity kept per second
     action_seconds: float = 0.1
-    substep_seconds: float = 0.01
-    solver_iterations: int = 20
+    substep_seconds: float = 0.02
+    solver_iterations: int = 10
     warm_start: bool = True
     collision_slop: float = 0.001
     static_friction: float = 1.0
@@ -154,7 +154,7 @@ def object_values(
     theta: float,
     color: tuple[float, float, float],
     z: float,
-    static: bool = False,
+    static: float = 0.0,
     **extra: float,
 ) -> dict[str, float]:
     """Features of an object at rest (base features plus ``extra``)."""
@@ -269,14 +269,14 @@ class Dynamic2DEnv(ObjectCentricEnv):
         zeroed. Returns the substeps simulated."""
         cfg = self.config
         self.scene.index(state)
-        sim = Simulation(self.scene, state.data)
         dt = cfg.substep_seconds
-        steps = sim.settle(
-            max_substeps=round(cfg.settle_max_seconds / dt),
-            check_every=max(1, round(cfg.settle_check_seconds / dt)),
-            speed_tol=cfg.settle_speed_tol,
-        )
-        sim.write(state.data)
+        with Simulation(self.scene, state.data) as sim:
+            steps = sim.settle(
+                max_substeps=round(cfg.settle_max_seconds / dt),
+                check_every=max(1, round(cfg.settle_check_seconds / dt)),
+                speed_tol=cfg.settle_speed_tol,
+            )
+            sim.write(state.data)
         self._zero_velocities(state.data)
         return steps
 
@@ -302,11 +302,11 @@ class Dynamic2DEnv(ObjectCentricEnv):
             gap = float(r[21])
             new_gap = min(max(gap + float(action[4]), 2 * float(r[22])), float(r[20]))
             release = new_gap > gap + GAP_EPS and bool(np.any(data[scene.held_idx] > 0.5))
-        sim = Simulation(scene, data, release=release)
-        if self.config.warm_start:
-            sim.warm_start()
-        sim.act(action)
-        sim.write(data)
+        with Simulation(scene, data, release=release) as sim:
+            if self.config.warm_start:
+                sim.warm_start()
+            sim.act(action)
+            sim.write(data)
         if not self._physically_valid(data):
             # Tunnelling or a solver blow-up: discard the transition (everything stays put, at
             # rest) rather than let a broken state reach an observation.

@@ -69,7 +69,7 @@ class DynObstruction2DEnv(Dynamic2DEnv):
     cannot be grasped, and toppling can make a block ungraspable.
 
     The robot is kinematic: each action moves it by the commanded deltas, spread evenly over the
-    action's simulated time (0.1 s, ten 0.01 s substeps). If any robot part (or what it holds)
+    action's simulated time (0.1 s, five 0.02 s substeps). If any robot part (or what it holds)
     touches the table or a wall, the robot returns to its last pose, stops for the rest of that
     action, and nothing else about the action changes. Closing the fingers on a block grasps it
     when the contact normal is within 0.1 rad of the closing direction, the block's centre of mass
@@ -112,9 +112,11 @@ class DynObstruction2DEnv(Dynamic2DEnv):
       time per action, robot geometry, sampling ranges).
 
     ## Deviations
-    * Time: one action is 0.1 s of simulated time in ten 0.01 s substeps (upstream integrates
-      1.0 s per action, 100 substeps, although its comments say 10 Hz). `action_seconds` and
-      `substep_seconds` in the config change this.
+    * Time: one action is 0.1 s of simulated time in five 0.02 s substeps (upstream integrates
+      1.0 s per action in 100 substeps of 0.01 s, although its comments say 10 Hz). Contacts are
+      solved with 10 iterations, and each action starts with one priming substep that is then
+      undone (`warm_start`), so resting stacks do not creep. `action_seconds`,
+      `substep_seconds`, `solver_iterations` and `warm_start` in the config change this.
     * The robot follows its commanded motion exactly (a linear interpolation over the action)
       instead of upstream's PD velocity controller (gains 50/5); actions therefore mean exactly
       "move by this delta" when nothing blocks the robot.
@@ -179,70 +181,70 @@ class DynObstruction2DEnv(Dynamic2DEnv):
     # -- sampling --------------------------------------------------------------------------------
     def _sample_unsettled(self, rng: np.random.Generator) -> ObjectCentricState:
         cfg = self.config
-        w_world = cfg.world_max_x - cfg.world_min_x
         lo_x, hi_x = cfg.world_min_x + cfg.reach_margin, cfg.world_max_x - cfg.reach_margin
         top = cfg.table_height
-        statics = [sb.poly for sb in self.scene.statics]
-        for _ in range(cfg.max_reset_tries):
-            bw, bh = uniform(rng, *cfg.block_width), uniform(rng, *cfg.block_height)
-            sw = bw + uniform(rng, *cfg.surface_padding)
-            sx = uniform(rng, lo_x, hi_x)
-            bx = uniform(rng, lo_x, hi_x)
-            feats: dict[Object, dict[str, float]] = {
-                self.target_surface: object_values(
-                    sx, top / 2, 0.0, ot.PURPLE, ot.Z_NONE, static=True, width=sw, height=top
-                ),
-                self.target_block: object_values(
-                    bx,
-                    top + bh / 2,
-                    0.0,
-                    ot.PURPLE,
-                    ot.Z_ALL,
-                    width=bw,
-                    height=bh,
-                    mass=cfg.block_mass,
-                ),
-            }
-            for o in self.obstructions:
-                ow, oh = uniform(rng, *cfg.block_width), uniform(rng, *cfg.block_height)
-                if rng.uniform() < cfg.obstruction_overlap_prob:
-                    reach = sw / 2 + ow / 2
-                    ox = uniform(rng, max(lo_x, sx - reach), min(hi_x, sx + reach))
+        statics = [WorldShape((sb.poly,)) for sb in self.scene.statics]
+        tries = 100  # per object
+        for _ in range(max(1, cfg.max_reset_tries // tries)):
+            sw = 0.0
+            feats: dict[Object, dict[str, float]] = {}
+            spans: list[tuple[float, float]] = []  # x-extents of the blocks on the table
+            ok = True
+            for obj in (self.target_block, *self.obstructions):
+                for _ in range(tries):
+                    w, h = uniform(rng, *cfg.block_width), uniform(rng, *cfg.block_height)
+                    if obj == self.target_block:
+                        sw = w + uniform(rng, *cfg.surface_padding)
+                        sx = uniform(rng, max(lo_x, sw / 2), min(hi_x, cfg.world_max_x - sw / 2))
+                        x = uniform(rng, lo_x, hi_x)
+                        if abs(x - sx) < (sw - w) / 2 + cfg.goal_tolerance:
+                            continue  # the goal would already hold
+                    elif rng.uniform() < cfg.obstruction_overlap_prob:
+                        reach = sw / 2 + w / 2
+                        x = uniform(rng, max(lo_x, sx - reach), min(hi_x, sx + reach))
+                    else:
+                        x = uniform(rng, lo_x, hi_x)
+                    if any(x + w / 2 > a and x - w / 2 < b for a, b in spans):
+                        continue
+                    spans.append((x - w / 2, x + w / 2))
+                    color = ot.PURPLE if obj == self.target_block else ot.RED
+                    feats[obj] = object_values(
+                        x,
+                        top + h / 2,
+                        0.0,
+                        color,
+                        ot.Z_ALL,
+                        width=w,
+                        height=h,
+                        mass=cfg.block_mass,
+                    )
+                    break
                 else:
-                    ox = uniform(rng, lo_x, hi_x)
-                feats[o] = object_values(
-                    ox,
-                    top + oh / 2,
-                    0.0,
-                    ot.RED,
-                    ot.Z_ALL,
-                    width=ow,
-                    height=oh,
-                    mass=cfg.block_mass,
-                )
-            robot_vals = cfg.robot_values(
-                uniform(rng, cfg.world_min_x + 0.3, cfg.world_max_x - 0.3),
-                uniform(rng, *cfg.robot_init_y),
-                uniform(rng, *cfg.robot_init_theta),
+                    ok = False
+                    break
+            if not ok:
+                continue
+            feats[self.target_surface] = object_values(
+                sx, top / 2, 0.0, ot.PURPLE, ot.Z_NONE, static=True, width=sw, height=top
             )
-            feats[self.robot] = robot_vals
-            state = ObjectCentricState.from_features(feats)
-            if sx - sw / 2 < cfg.world_min_x or sx + sw / 2 > cfg.world_min_x + w_world:
-                continue
-            if self.goal_reached(state):
-                continue
-            shapes = [self._block_shape(state, b) for b in (self.target_block, *self.obstructions)]
-            if any(overlaps(a, b) for i, a in enumerate(shapes) for b in shapes[i + 1 :]):
-                continue
-            robot = kin_robot_geometry(state[self.robot]).shape
-            if any(overlaps(robot, s) for s in shapes):
-                continue
-            if any(overlaps(robot, WorldShape((p,))) for p in statics):
-                continue
-            return state
+            blocks = [
+                place(rect_shape(f["width"], f["height"]), f["x"], f["y"], 0.0)
+                for o, f in feats.items()
+                if o != self.target_surface
+            ]
+            for _ in range(tries):
+                robot = cfg.robot_values(
+                    uniform(rng, cfg.world_min_x + 0.3, cfg.world_max_x - 0.3),
+                    uniform(rng, *cfg.robot_init_y),
+                    uniform(rng, *cfg.robot_init_theta),
+                )
+                shape = kin_robot_geometry([robot[f] for f in ot.KIN_ROBOT_FEATURES]).shape
+                if not any(overlaps(shape, o) for o in (*blocks, *statics)):
+                    feats[self.robot] = robot
+                    return ObjectCentricState.from_features(feats)
         raise RuntimeError(
-            f"DynObstruction2D: could not place the blocks, surface and robot without overlaps "
-            f"in {cfg.max_reset_tries} tries"
+            f"DynObstruction2D: could not place the target block, {self.num_obstructions} "
+            f"obstructions and the robot without overlaps in {cfg.max_reset_tries} tries"
         )
 
     def _block_shape(self, state: ObjectCentricState, obj: Object) -> Any:

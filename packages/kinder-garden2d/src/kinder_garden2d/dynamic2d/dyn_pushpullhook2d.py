@@ -71,7 +71,7 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
     drag the target down until it overlaps the wall.
 
     The robot is kinematic and follows its commanded motion exactly over each action's 0.1 s
-    (ten 0.01 s substeps); a static contact (walls, or the middle wall for the base) returns it to
+    (five 0.02 s substeps); a static contact (walls, or the middle wall for the base) returns it to
     its last pose and stops it for the rest of the action. Closing the fingers on the hook or a
     block grasps it (contact normal within 0.1 rad of the closing direction, centre of mass between
     the fingers, contact along the fingers); opening releases it with its velocity. Held objects
@@ -107,8 +107,9 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
     * `config`: a `DynPushPullHook2DConfig` or a mapping of field overrides.
 
     ## Deviations
-    * Time: 0.1 s of simulated time per action in ten 0.01 s substeps (upstream: 1.0 s in 100);
-      the robot tracks its commanded motion exactly rather than through a PD controller.
+    * Time: 0.1 s of simulated time per action in five 0.02 s substeps
+      (upstream: 1.0 s in 100 of 0.01 s); the robot tracks its commanded motion exactly
+      rather than through a PD controller.
     * Each transition is computed from the observed state alone (a fresh physics space per
       action), so `set_state` replays exactly.
     * The hook's mass (1) and the obstructions' orientation (uniform) are our choices; upstream's

@@ -61,7 +61,7 @@ class DynPushT2DEnv(Dynamic2DEnv):
     dynamic T-shaped block (mass 1) until it matches the light-green goal T in position and
     orientation. Damping is 0, so the block keeps no velocity between substeps: pushing is
     quasi-static. The robot follows its commanded displacement exactly, spread over the action's
-    0.1 s (ten 0.01 s substeps); touching a wall returns it to its last position and stops it for
+    0.1 s (five 0.02 s substeps); touching a wall returns it to its last position and stops it for
     the rest of the action.
 
     ## Observation Space
@@ -94,8 +94,9 @@ class DynPushT2DEnv(Dynamic2DEnv):
     ## Deviations
     * The goal compares the wrapped angle difference; upstream compares raw angles, so a block at
       θ = π − ε never matches a goal at −π + ε although the poses are almost identical.
-    * Time: 0.1 s of simulated time per action in ten 0.01 s substeps (upstream: 1.0 s in 100);
-      the robot tracks its commanded displacement exactly rather than through a PD controller.
+    * Time: 0.1 s of simulated time per action in five 0.02 s substeps
+      (upstream: 1.0 s in 100 of 0.01 s); the robot tracks its commanded displacement
+      exactly rather than through a PD controller.
     * Each transition is computed from the observed state alone (a fresh physics space per
       action), so `set_state` replays exactly.
     * A transition that leaves the block outside the world, non-finite, or faster than 20 m/s is

@@ -157,8 +157,21 @@ def penetration(a: WorldShape, b: WorldShape) -> float:
     return best
 
 
+def bounds(a: WorldShape) -> tuple[float, float, float, float]:
+    """Axis-aligned bounding box (xmin, xmax, ymin, ymax) of a shape."""
+    xs = [float(p[:, 0].min()) for p in a.polys] + [c[0] - c[2] for c in a.circles]
+    xm = [float(p[:, 0].max()) for p in a.polys] + [c[0] + c[2] for c in a.circles]
+    ys = [float(p[:, 1].min()) for p in a.polys] + [c[1] - c[2] for c in a.circles]
+    ym = [float(p[:, 1].max()) for p in a.polys] + [c[1] + c[2] for c in a.circles]
+    return min(xs), max(xm), min(ys), max(ym)
+
+
 def overlaps(a: WorldShape, b: WorldShape, tol: float = 0.0) -> bool:
     """True if the shapes overlap by more than ``tol``."""
+    ax0, ax1, ay0, ay1 = bounds(a)
+    bx0, bx1, by0, by1 = bounds(b)
+    if ax1 - bx0 <= tol or bx1 - ax0 <= tol or ay1 - by0 <= tol or by1 - ay0 <= tol:
+        return False
     return penetration(a, b) > tol
 
 

@@ -22,7 +22,6 @@ from kinder_garden2d.kinematic2d.crv import (
     world_walls,
 )
 from kinder_garden2d.kinematic2d.object_types import (
-    BLACK,
     CIRCLE,
     CRV_ROBOT,
     DOUBLE_RECTANGLE,
@@ -35,6 +34,8 @@ from kinder_garden2d.rendering import Canvas
 
 T = TypeVar("T")
 
+# The outer walls' colour (they are not observed; a grey that frames the world).
+WALL_GREY = (0.35, 0.35, 0.35)
 # Robot colours (RGB 0-255).
 _ROBOT_BASE = (127, 127, 230)
 _ROBOT_DARK = (40, 40, 40)
@@ -134,7 +135,7 @@ class Kinematic2DEnv(ObjectCentricEnv):
         constants = walls if extra_constants is None else Bodies.concat([walls, extra_constants])
         self.layout = StateLayout.of([self.robot, *objects])
         self.world = KinematicWorld(self.layout, self.robot, constants, push=push)
-        self._constant_drawing = [(walls.obbs, BLACK), *extra_drawing]
+        self._constant_drawing = [(walls.obbs, WALL_GREY), *extra_drawing]
 
     # -- contract -------------------------------------------------------------------------------
     def _transition(self, state: ObjectCentricState, action: FloatArray) -> ObjectCentricState:
@@ -215,8 +216,13 @@ class Kinematic2DEnv(ObjectCentricEnv):
             supersample=c.render_supersample,
             antialias=c.render_antialias,
         )
-        for obbs, color in self._constant_drawing:
+        # Scenery first, grown past the world's edge where it touches it, then the walls over
+        # the margin: adjacent antialiased edges would otherwise leave a light seam.
+        walls, *scenery = self._constant_drawing
+        for obbs, color in [*scenery, walls]:
             for corners in obb_corners(obbs):
+                if obbs is not walls[0]:
+                    corners = _grow_to_margin(corners, c.world_bounds, max(pad_x, pad_y))
                 canvas.polygon(corners, rgb255(color))
         canvas.keep_as_background()
         return canvas
@@ -225,10 +231,25 @@ class Kinematic2DEnv(ObjectCentricEnv):
         if self._canvas is None:
             self._canvas = self._make_canvas()
         canvas = self._canvas
-        canvas.clear()
+        canvas.clear()  # free after finish(), which hands over the buffer
         draw_objects(canvas, self.world, state.data)
         draw_robot(canvas, state.data[self.world.robot_idx])
-        return canvas.image()
+        return canvas.finish()
+
+
+def _grow_to_margin(
+    corners: FloatArray, bounds: tuple[float, float, float, float], pad: float
+) -> FloatArray:
+    """Push the sides of an axis-aligned box that lie on the world's edge out by ``pad``."""
+    xmin, xmax, ymin, ymax = bounds
+    out: FloatArray = corners.copy()
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    if not np.allclose(np.sort(corners[:, 0]), [lo[0], lo[0], hi[0], hi[0]]):
+        return out  # rotated: leave it
+    for axis, (edge_lo, edge_hi) in enumerate(((xmin, xmax), (ymin, ymax))):
+        out[np.isclose(corners[:, axis], edge_lo) & np.isclose(lo[axis], edge_lo), axis] -= pad
+        out[np.isclose(corners[:, axis], edge_hi) & np.isclose(hi[axis], edge_hi), axis] += pad
+    return out
 
 
 def _draw_order(world: KinematicWorld, data: FloatArray) -> list[int]:

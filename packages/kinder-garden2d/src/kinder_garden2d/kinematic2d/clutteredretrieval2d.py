@@ -8,7 +8,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from kinder_core import Object, ObjectCentricState
-
 from kinder_garden2d.geometry import (
     FloatArray,
     obb_corners,
@@ -27,6 +26,8 @@ from kinder_garden2d.kinematic2d.object_types import (
     ZOrder,
 )
 from kinder_garden2d.kinematic2d.predicates import is_inside
+
+Pose = tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -203,22 +204,22 @@ class ClutteredRetrieval2DEnv(Kinematic2DEnv):
         walls = self.world.constants
         xmin, xmax, ymin, ymax = c.world_bounds
 
-        def block_and_region() -> tuple[list[float], list[float], list[float]] | None:
+        def block_and_region() -> tuple[list[float], Pose, Pose] | None:
             robot = self.robot_features(
                 rng.uniform(*c.robot_init_xy),
                 rng.uniform(*c.robot_init_xy),
                 rng.uniform(-np.pi, np.pi),
             )
-            b = [
+            b = (
                 rng.uniform(*c.target_init_xy),
                 rng.uniform(*c.target_init_xy),
                 rng.uniform(-np.pi, np.pi),
-            ]
-            g = [
+            )
+            g = (
                 rng.uniform(*c.target_init_xy),
                 rng.uniform(*c.target_init_xy),
                 rng.uniform(-np.pi, np.pi),
-            ]
+            )
             region = obbs_from_anchor(*g, c.target_region_size, c.target_region_size)
             corners = obb_corners(region)[0]
             if np.any(corners < [xmin, ymin]) or np.any(corners > [xmax, ymax]):

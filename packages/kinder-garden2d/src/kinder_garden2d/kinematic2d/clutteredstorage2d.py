@@ -7,7 +7,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinder_core import Object, ObjectCentricState
-
 from kinder_garden2d.geometry import obbs_from_anchor
 from kinder_garden2d.kinematic2d.base import Kinematic2DConfig, Kinematic2DEnv
 from kinder_garden2d.kinematic2d.crv import Bodies, bodies_collide, robot_geometry

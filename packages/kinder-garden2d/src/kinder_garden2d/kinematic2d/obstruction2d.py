@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
 from kinder_core import Object, ObjectCentricState
-
 from kinder_garden2d.geometry import obbs_from_anchor
 from kinder_garden2d.kinematic2d.base import Kinematic2DConfig, Kinematic2DEnv
 from kinder_garden2d.kinematic2d.crv import Bodies
@@ -179,6 +179,15 @@ class Obstruction2DEnv(Kinematic2DEnv):
                     x = rng.uniform(c.world_min_x, c.world_max_x - w)
                 feats[obstruction] = [x, rest_y, 0.0, 0.0, *OBSTRUCTION_RED, ZOrder.ALL, w, h]
             if sx < c.world_min_x or sx + sw > c.world_max_x:
+                return None
+            # Every block rests upright on the table, so two blocks collide exactly when their
+            # x-intervals meet: a cheap early rejection before the exact check below.
+            spans = sorted(
+                (f[0], f[0] + f[8])
+                for o, f in feats.items()
+                if o is not self.robot and o is not self.target_surface
+            )
+            if any(b0 <= a1 for (_, a1), (b0, _) in itertools.pairwise(spans)):
                 return None
             state = ObjectCentricState.from_features(feats)
             if self.goal_reached(state) or self.world.in_collision(state.data):

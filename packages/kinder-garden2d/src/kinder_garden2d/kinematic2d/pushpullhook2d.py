@@ -9,7 +9,6 @@ import numpy as np
 
 from kinder_core import Object, ObjectCentricState
 from kinder_core.state import FloatArray
-
 from kinder_garden2d.geometry import circle_push_out_of_obb, lshape_obbs, obb_circle_overlap
 from kinder_garden2d.kinematic2d.base import Kinematic2DEnv
 from kinder_garden2d.kinematic2d.crv import (
@@ -169,11 +168,11 @@ class PushPullHook2DEnv(Kinematic2DEnv):
                 rng.uniform(*c.robot_init_y),
                 rng.uniform(-np.pi, np.pi),
             )
-            hook = [
+            hook = (
                 rng.uniform(*c.hook_init_x),
                 rng.uniform(*c.hook_init_y),
                 rng.uniform(*c.hook_init_theta),
-            ]
+            )
             m = [rng.uniform(*c.button_init_x), rng.uniform(*c.button_init_y)]
             t = [rng.uniform(*c.button_init_x), rng.uniform(*c.button_init_y)]
             lo, hi = c.button_init_distance

@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from kinder_core import Object, ObjectCentricState
 from kinder_core.state import FloatArray
-
 from kinder_garden2d.geometry import (
-    circle_circle_overlap,
-    obb_circle_overlap,
     obbs_from_anchor,
 )
 from kinder_garden2d.kinematic2d.base import Kinematic2DConfig, Kinematic2DEnv
@@ -179,7 +178,7 @@ class StickButton2DEnv(Kinematic2DEnv):
         )
         for button in self.buttons:
 
-            def one_button() -> tuple[float, float] | None:
+            def one_button(placed: Bodies = placed) -> tuple[float, float] | None:
                 x = rng.uniform(c.world_min_x + r, c.world_max_x - r)
                 y = rng.uniform(c.world_min_y + r, c.world_max_y - r)
                 probe = Bodies.of(circles=[[x, y, r]], circle_z=[ZOrder.SURFACE])
@@ -225,20 +224,51 @@ def press_touched_buttons(
     data: FloatArray,
     robot: FloatArray,
     pressers: FloatArray,
-    button_circle_idx: np.ndarray,
-    button_color_idx: np.ndarray,
+    button_circle_idx: NDArray[np.intp],
+    button_color_idx: NDArray[np.intp],
 ) -> None:
     """Turn green (in place) every button that the robot's base, arm or gripper, or one of the
-    ``pressers`` rectangles (rows ``[x, y, theta, width, height]``), touches."""
-    g = robot_geometry(robot)
-    buttons = data[button_circle_idx]
-    boxes = np.concatenate(
-        [
-            np.stack([g.arm, g.gripper]),
-            obbs_from_anchor(*pressers.T) if len(pressers) else np.zeros((0, 6)),
-        ]
-    )
-    touched = obb_circle_overlap(boxes, buttons).any(axis=0)
-    touched |= circle_circle_overlap(g.base[None], buttons)[0]
-    if touched.any():
-        data[button_color_idx[touched]] = BUTTON_GREEN
+    ``pressers`` rectangles (rows ``[x, y, theta, width, height]``), touches.
+
+    Pressed buttons stay pressed, so only the others are tested, and only those within reach of
+    the robot or a presser get the exact shape tests.
+    """
+    colors = data[button_color_idx]
+    unpressed = np.flatnonzero(np.any(np.abs(colors - BUTTON_GREEN) > 1e-6, axis=1))
+    if not unpressed.size:
+        return
+    buttons = data[button_circle_idx[unpressed]]
+    x, y, th, br, aj, _, _, gh, gw = robot.tolist()
+    c, s = math.cos(th), math.sin(th)
+    boxes = [
+        (x + 0.5 * aj * c, y + 0.5 * aj * s, c, s, 0.5 * aj, 0.25 * gw),  # arm
+        (x + aj * c, y + aj * s, c, s, 0.5 * gw, 0.5 * gh),  # gripper
+    ]
+    # Bounding circles: the robot's reach, and each presser's circumcircle.
+    near = [(x, y, max(br, math.hypot(aj + 0.5 * gw, 0.5 * gh)))]
+    for px, py, pth, pw, ph in pressers.tolist():
+        pc, ps = math.cos(pth), math.sin(pth)
+        cx = px + 0.5 * (pc * pw - ps * ph)
+        cy = py + 0.5 * (ps * pw + pc * ph)
+        boxes.append((cx, cy, pc, ps, 0.5 * pw, 0.5 * ph))
+        near.append((cx, cy, 0.5 * math.hypot(pw, ph)))
+    pressed = []
+    for k, (bx, by, r) in zip(unpressed.tolist(), buttons.tolist()):
+        if not any(math.hypot(bx - nx, by - ny) <= nr + r for nx, ny, nr in near):
+            continue
+        if math.hypot(bx - x, by - y) <= br + r or any(
+            _circle_touches_box(bx, by, r, box) for box in boxes
+        ):
+            pressed.append(k)
+    if pressed:
+        data[button_color_idx[pressed]] = BUTTON_GREEN
+
+
+def _circle_touches_box(
+    x: float, y: float, r: float, box: tuple[float, float, float, float, float, float]
+) -> bool:
+    cx, cy, c, s, hw, hh = box
+    dx, dy = x - cx, y - cy
+    ex = max(abs(dx * c + dy * s) - hw, 0.0)
+    ey = max(abs(dy * c - dx * s) - hh, 0.0)
+    return ex * ex + ey * ey <= r * r

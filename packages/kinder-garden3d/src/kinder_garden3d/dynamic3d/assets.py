@@ -23,6 +23,7 @@ Collision filtering uses bitmasks: fixtures and the floor never collide with eac
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -136,6 +137,8 @@ def _bbox(parts: list[_Box]) -> tuple[Array, Array]:
             half = np.array(p.size) / 2.0
         else:  # cylinders here are only ever axis-aligned along x, y or z
             r, length = p.size[0] / 2.0, p.size[2] / 2.0
+            if p.kind == "capsule":
+                length += r
             half = np.array([r, r, length])
             if p.euler is not None and abs(p.euler[1]) > 1e-9:  # axis along x
                 half = np.array([length, r, r])
@@ -213,14 +216,19 @@ def _cuboid(name: str, p: Params) -> ObjectAsset:
 
 
 def _open_box(size: Sequence[float], wall: float, rgba: Sequence[float]) -> list[_Box]:
-    """A box open at the top: a floor and four walls, bottom at z = 0."""
+    """A box open at the top: a floor and four walls, bottom at z = 0.
+
+    The walls stand on the floor plate (not beside it down to z = 0), so only the plate touches
+    the support: 4 contacts instead of 20 (a large share of the simulation cost)."""
     sx, sy, sz = (float(v) for v in size)
+    hw = sz - wall  # wall height above the plate
+    zc = wall + hw / 2
     return [
         _Box((0, 0, wall / 2), (sx, sy, wall), rgba),
-        _Box(((sx - wall) / 2, 0, sz / 2), (wall, sy, sz), rgba),
-        _Box((-(sx - wall) / 2, 0, sz / 2), (wall, sy, sz), rgba),
-        _Box((0, (sy - wall) / 2, sz / 2), (sx - 2 * wall, wall, sz), rgba),
-        _Box((0, -(sy - wall) / 2, sz / 2), (sx - 2 * wall, wall, sz), rgba),
+        _Box(((sx - wall) / 2, 0, zc), (wall, sy, hw), rgba),
+        _Box((-(sx - wall) / 2, 0, zc), (wall, sy, hw), rgba),
+        _Box((0, (sy - wall) / 2, zc), (sx - 2 * wall, wall, hw), rgba),
+        _Box((0, -(sy - wall) / 2, zc), (sx - 2 * wall, wall, hw), rgba),
     ]
 
 
@@ -235,7 +243,8 @@ def _bowl(name: str, p: Params) -> ObjectAsset:
     base_r = d * 0.3
     rim_r = d / 2 - wall / 2
     flare = math.atan2(rim_r - base_r, h)  # tilt of the slats away from the axis
-    slat_len = math.hypot(rim_r - base_r, h)
+    # Length such that a tilted slat (thickness included) spans exactly the bowl's height.
+    slat_len = (h - wall * math.sin(flare)) / math.cos(flare)
     slat_w = 2 * math.pi * rim_r / n * 1.1
     volume = math.pi * base_r**2 * wall + n * slat_w * wall * slat_len
     density = float(p["mass"]) / volume
@@ -253,9 +262,15 @@ def _bowl(name: str, p: Params) -> ObjectAsset:
             f'<geom name="{name}_s{k}" type="box" '
             f'size="{_f((wall / 2, slat_w / 2, slat_len / 2))}" '
             f'pos="{_f((r_mid * math.cos(a), r_mid * math.sin(a), 0.0))}" '
-            f'euler="{a:.6g} {flare:.6g} 0" eulerseq="zyx" {common}/>'
+            f'quat="{_f(_quat_zy(a, flare))}" {common}/>'
         )
     return ObjectAsset("\n".join(lines), np.array([d, d, h]), h / 2)
+
+
+def _quat_zy(yaw: float, pitch: float) -> tuple[float, float, float, float]:
+    """The (w, x, y, z) quaternion of Rz(yaw) · Ry(pitch)."""
+    cz, sz, cy, sy = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)
+    return (cz * cy, -sz * sy, cz * sy, sz * cy)
 
 
 def _drink_box(name: str, p: Params) -> ObjectAsset:
@@ -274,36 +289,42 @@ def _can(name: str, p: Params) -> ObjectAsset:
     d, h = float(p["diameter"]), float(p["height"])
     parts = [
         _Box((0, 0, h / 2), (d, d, h), p["rgba"], "cylinder"),
-        _Box((0, 0, h * 0.5), (d * 1.01, d * 1.01, h * 0.4), p["label_rgba"], "cylinder", None, False),
+        _Box(
+            (0, 0, h * 0.5), (d * 1.01, d * 1.01, h * 0.4), p["label_rgba"], "cylinder", None, False
+        ),
     ]
     return _simple(name, parts, p["mass"], p["friction"])
 
 
 def _screw(name: str, p: Params) -> ObjectAsset:
-    """A screw lying along x: a hex-ish head cylinder and a thinner shaft (stand-in for the
-    scaled fastener meshes)."""
+    """A screw lying along x: a short fat head and a thinner shaft, both capsules (a stand-in for
+    the scaled fastener meshes; capsules collide much faster than cylinders)."""
     length, head_d, head_l, shaft_d = (
         float(p["length"]), float(p["head_diameter"]), float(p["head_length"]),
         float(p["shaft_diameter"]),
     )  # fmt: skip
     along_x = (0.0, math.pi / 2, 0.0)
+    head_r, shaft_r = head_d / 2, shaft_d / 2
+    shaft_len = length - head_l
     parts = [
-        _Box((head_l / 2, 0, 0), (head_d, head_d, head_l), p["rgba"], "cylinder", along_x),
-        _Box(
-            (head_l + (length - head_l) / 2, 0, 0),
-            (shaft_d, shaft_d, length - head_l),
-            p["rgba"],
-            "cylinder",
-            along_x,
-        ),
-    ]
+        # capsule sizes: (diameter, diameter, straight length); the caps add a radius each end
+        _Box((head_l / 2, 0, 0), (head_d, head_d, max(head_l - head_d, 1e-4)), p["rgba"],
+             "capsule", along_x),
+        _Box((head_l + shaft_len / 2, 0, 0), (shaft_d, shaft_d, max(shaft_len - shaft_d, 1e-4)),
+             p["rgba"], "capsule", along_x),
+    ]  # fmt: skip
+    del head_r, shaft_r
     return _simple(name, parts, p["mass"], p["friction"])
 
 
 def _wiper(name: str, p: Params) -> ObjectAsset:
     """A wiper / broom lying flat: a handle along x and a head across it at +x."""
     hl, hw = float(p["handle_length"]), float(p["handle_width"])
-    head_l, head_h, head_w = float(p["head_length"]), float(p["head_height"]), float(p["head_width"])
+    head_l, head_h, head_w = (
+        float(p["head_length"]),
+        float(p["head_height"]),
+        float(p["head_width"]),
+    )
     parts = [
         _Box((hl / 2, 0, head_h - hw / 2), (hl, hw, hw), p["handle_rgba"]),
         _Box((hl + head_w / 2, 0, head_h / 2), (head_w, head_l, head_h), p["head_rgba"]),
@@ -367,11 +388,13 @@ def _chair(name: str, p: Params) -> ObjectAsset:
     parts = [_Box((0, 0, seat_h - seat_t / 2), (w, dpt, seat_t), rgba)]
     for sx in (-1, 1):
         for sy in (-1, 1):
+            # Capsule legs: one floor contact each (box feet would give four).
             parts.append(
                 _Box(
                     (sx * (w / 2 - leg / 2), sy * (dpt / 2 - leg / 2), (seat_h - seat_t) / 2),
-                    (leg, leg, seat_h - seat_t),
+                    (leg, leg, seat_h - seat_t - leg),
                     frame_rgba,
+                    "capsule",
                 )
             )
     parts.append(
@@ -379,7 +402,9 @@ def _chair(name: str, p: Params) -> ObjectAsset:
     )
     if arms:
         for sx in (-1, 1):
-            parts.append(_Box((sx * (w / 2 - 0.04), 0.0, seat_h + 0.15), (0.08, dpt * 0.8, 0.06), rgba))
+            parts.append(
+                _Box((sx * (w / 2 - 0.04), 0.0, seat_h + 0.15), (0.08, dpt * 0.8, 0.06), rgba)
+            )
     return _simple(name, parts, p["mass"], p["friction"])
 
 
@@ -552,7 +577,13 @@ def _cupboard(name: str, p: Params) -> FixtureAsset:
             xc = (x0 + x1) / 2
             key = f"shelf:{k}/partition:{c}"
             frames[key] = pose_matrix((xc, 0.0, z[k]), np.eye(3))
-            if drawers_cfg[k][c]:
+            working = p["working_drawers"] is None or [k, c] in p["working_drawers"]
+            if drawers_cfg[k][c] and not working:
+                # A drawer that never opens: the same shapes, welded to the fixture (no joint,
+                # no state, and no contacts with the fixture to compute).
+                _, xml = _drawer(name, k, c, x1 - x0, depth, heights[k], t, p)
+                lines.extend(_static_drawer_geoms(xml, (xc, 0.0, z[k])))
+            elif drawers_cfg[k][c]:
                 spec, xml = _drawer(name, k, c, x1 - x0, depth, heights[k], t, p)
                 children.append(xml.replace("__POS__", _f((xc, 0.0, z[k]))))
                 drawers.append(
@@ -580,7 +611,12 @@ def _drawer(
     wall, floor = 0.01, 0.01
     yc = depth / 2 - 0.01 - dd / 2  # drawer box centre (face at the cupboard front)
     cls = OBJECT_CLASS
-    fr, wr, face, handle = p["rgba_drawer"], p["rgba_drawer"], p["rgba_drawer_face"], p["rgba_drawer_handle"]
+    fr, wr, face, handle = (
+        p["rgba_drawer"],
+        p["rgba_drawer"],
+        p["rgba_drawer_face"],
+        p["rgba_drawer_handle"],
+    )
     mass = float(p["drawer_mass"])
     vol = w * dd * floor + 2 * dd * h * wall + w * h * wall + w * (h + 2 * gap) * 0.02
     dens = mass / vol
@@ -603,6 +639,21 @@ def _drawer(
     )
     del t
     return name, xml
+
+
+def _static_drawer_geoms(xml: str, offset: Sequence[float]) -> list[str]:
+    """The geoms of a drawer body, moved into the fixture frame as fixture geoms."""
+    out = []
+    for line in xml.splitlines():
+        if not line.startswith("<geom"):
+            continue
+        pos = re.search(r'pos="([^"]*)"', line)
+        assert pos is not None
+        local = np.array([float(v) for v in pos.group(1).split()]) + np.asarray(offset)
+        line = line[: pos.start(1)] + _f(local) + line[pos.end(1) :]
+        line = line.replace(f'class="{OBJECT_CLASS}"', f'class="{FIXTURE_CLASS}"')
+        out.append(re.sub(r' density="[^"]*"', "", line))
+    return out
 
 
 def _table(name: str, p: Params) -> FixtureAsset:
@@ -640,7 +691,7 @@ FIXTURE_TYPES: dict[str, tuple[Callable[[str, Params], FixtureAsset], Params]] =
          "rgba_partition": list(WOOD), "rgba_drawer": list(WOOD),
          "rgba_drawer_face": list(DRAWER_FACE), "rgba_drawer_handle": list(BLACK),
          "drawer_mass": 1.0, "drawer_travel": 0.8, "drawer_damping": 5.0,
-         "drawer_frictionloss": 0.5},
+         "drawer_frictionloss": 0.5, "working_drawers": None},
     ),
     "table": (
         _table,

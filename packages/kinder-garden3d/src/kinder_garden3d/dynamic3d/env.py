@@ -335,7 +335,9 @@ class Dynamic3DEnv(ObjectCentricEnv):
         if self._velocity_targets:
             low += [-cfg.max_arm_velocity_target] * 7
             high += [cfg.max_arm_velocity_target] * 7
-        self.action_space = spaces.Box(np.array(low), np.array(high), dtype=np.float32)
+        self.action_space = spaces.Box(
+            np.array(low, dtype=np.float32), np.array(high, dtype=np.float32), dtype=np.float32
+        )
         self._zero_action = np.zeros(len(low))
 
     def _update_metadata(self) -> None:
@@ -475,6 +477,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
         m, d = self.model, self.data
         mujoco.mj_resetData(m, d)
         d.qpos[self._q_arm] = RETRACT
+        d.qpos[self._q_base] = (-80.0, -80.0, 0.0)  # parked until the robot is placed
         self._fixture_boxes: list[tuple[str, Array, Array]] = []
         for name, spec in self.task.fixtures.items():
             if spec.pos is not None:
@@ -594,6 +597,13 @@ class Dynamic3DEnv(ObjectCentricEnv):
                     f"MUJOCO_GL=egl (libEGL) or MUJOCO_GL=osmesa (libOSMesa) set before mujoco is "
                     f"imported"
                 ) from e
+            # The first frame of a fresh GL context can differ in a few pixels from later ones;
+            # render one and discard it so that equal states always give equal frames.
+            renderer = self._renderers[key]
+            mujoco.mj_kinematics(self.model, self.data)
+            mujoco.mj_camlight(self.model, self.data)
+            renderer.update_scene(self.data, camera="task_view", scene_option=self._scene_option)
+            renderer.render()
         return self._renderers[key]
 
     def _render_camera(self, state: ObjectCentricState, camera: str) -> NDArray[np.uint8]:
@@ -608,7 +618,9 @@ class Dynamic3DEnv(ObjectCentricEnv):
     def _render_state(self, state: ObjectCentricState) -> NDArray[np.uint8]:
         return self._render_camera(state, "task_view")
 
-    def render_cameras(self, state: ObjectCentricState | None = None) -> dict[str, NDArray[np.uint8]]:
+    def render_cameras(
+        self, state: ObjectCentricState | None = None
+    ) -> dict[str, NDArray[np.uint8]]:
         """A frame from every camera (task cameras, ``robot_base``, ``robot_wrist``) of ``state``
         (default: the live state), keyed by camera name."""
         if state is None:
@@ -620,6 +632,20 @@ class Dynamic3DEnv(ObjectCentricEnv):
             renderer.close()
         self._renderers.clear()
         super().close()
+
+    def feature_bounds(self) -> dict[str, tuple[float, float]]:
+        """Generous finite bounds (the world is a few metres across; quaternions are unit)."""
+        big, pos = 1000.0, 100.0
+        bounds = {f: (-pos, pos) for f in ("x", "y", "z", "pos_base_x", "pos_base_y")}
+        bounds.update({f: (-1.0, 1.0) for f in ("qw", "qx", "qy", "qz")})
+        bounds.update({f: (0.0, 10.0) for f in ("bb_x", "bb_y", "bb_z")})
+        vel = ["vx", "vy", "vz", "wx", "wy", "wz", "vel", "hinge_vel", "vel_gripper",
+               "vel_base_x", "vel_base_y", "vel_base_rot", *(f"vel_arm_joint{i}" for i in range(1, 8))]  # fmt: skip
+        bounds.update({f: (-big, big) for f in vel})
+        bounds.update({f"pos_arm_joint{i}": (-big, big) for i in range(1, 8)})
+        bounds.update({"pos_base_rot": (-big, big), "pos_gripper": (-0.5, 1.5)})
+        bounds.update({"pos": (-1.0, 2.0), "hinge_pos": (-math.pi, math.pi)})
+        return bounds
 
     # -- helpers for users and tests ------------------------------------------------------------
     def goal_atoms(self, state: ObjectCentricState) -> dict[str, bool]:

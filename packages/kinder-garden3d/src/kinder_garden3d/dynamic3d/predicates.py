@@ -73,7 +73,9 @@ class Regions:
         local = rf.local
         if rf.drawer is not None:
             local = local.copy()
-            local[:3, 3] += np.asarray(rf.drawer_axis) * float(state.data[self._extra_idx[rf.drawer]])
+            local[:3, 3] += np.asarray(rf.drawer_axis) * float(
+                state.data[self._extra_idx[rf.drawer]]
+            )
         return base @ local
 
     def contains(self, state: ObjectCentricState, region: str, points: Array) -> NDArray[np.bool_]:
@@ -81,7 +83,9 @@ class Regions:
         t = self.transform(state, region)
         local = (points - t[:3, 3]) @ t[:3, :3]
         boxes = self.specs[region].boxes
-        inside = (local[:, None, :] >= boxes[None, :, :3]) & (local[:, None, :] <= boxes[None, :, 3:])
+        inside = (local[:, None, :] >= boxes[None, :, :3]) & (
+            local[:, None, :] <= boxes[None, :, 3:]
+        )
         result: NDArray[np.bool_] = inside.all(axis=2).any(axis=1)
         return result
 
@@ -106,7 +110,11 @@ class GoalEvaluator:
     def _point_idx(self, entity: str) -> list[int]:
         obj = self._layout.object_named(entity)
         if entity == ROBOT:
-            return [self._layout.index(obj, "pos_base_x"), self._layout.index(obj, "pos_base_y"), -1]
+            return [
+                self._layout.index(obj, "pos_base_x"),
+                self._layout.index(obj, "pos_base_y"),
+                -1,
+            ]
         return [self._layout.index(obj, f) for f in ("x", "y", "z")]
 
     def _compile(self, node: Goal) -> tuple[object, ...]:

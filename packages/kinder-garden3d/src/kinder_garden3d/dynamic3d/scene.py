@@ -13,6 +13,8 @@ changes are made while splicing it in, both in this module and not in ``robot/``
 
 from __future__ import annotations
 
+import math
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,6 +32,7 @@ from kinder_garden3d.dynamic3d.geometry import (
     Array,
     look_at_xyaxes,
     pose_matrix,
+    quat_mul,
     yaw_quat,
 )
 from kinder_garden3d.dynamic3d.taskfile import GROUND, TaskFileError, TaskSpec
@@ -85,6 +88,13 @@ def _f(values: object) -> str:
     return " ".join(f"{float(v):.6g}" for v in np.asarray(values, dtype=float).ravel())
 
 
+def _axis_quat(axis: int, angle: float) -> Array:
+    q = np.zeros(4)
+    q[0] = math.cos(angle / 2)
+    q[1 + axis] = math.sin(angle / 2)
+    return q
+
+
 def _robot_xml() -> tuple[str, str, str, str]:
     """The robot's worldbody, actuators, equality and defaults, adapted as described above."""
     parts = mjcf_parts(prefix=ROBOT_PREFIX)
@@ -94,6 +104,14 @@ def _robot_xml() -> tuple[str, str, str, str]:
         if tag not in body:
             raise RuntimeError(f"robot MJCF has no body {ROBOT_PREFIX}{name}")
         body = body.replace(tag, f'{tag} gravcomp="1"')
+    # The base camera's spec orientation is MuJoCo euler (0, -45°, -90°) (intrinsic x-y-z);
+    # the robot model converts it as URDF roll-pitch-yaw, which turns the image. Re-orient it.
+    cam = re.search(rf'<camera name="{ROBOT_PREFIX}base" [^>]*quat="([^"]*)"', body)
+    if cam is None:
+        raise RuntimeError(f"robot MJCF has no camera {ROBOT_PREFIX}base")
+    fixed = quat_mul(quat_mul(_axis_quat(0, 0.0), _axis_quat(1, -math.pi / 4)),
+                     _axis_quat(2, -math.pi / 2))  # fmt: skip
+    body = body[: cam.start(1)] + _f(fixed) + body[cam.end(1) :]
     lines = [ln for ln in parts.actuator.splitlines() if "<motor " not in ln]
     desc = robot_description()
     arm = []
@@ -221,8 +239,10 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int]) -> Scene:
     xml = f"""<mujoco model="kinder_{task.family}">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="0.0005" integrator="implicitfast"/>
+  <statistic extent="3" center="1 0 0.5"/>
   <visual>
     <global offwidth="{max(width, 640)}" offheight="{max(height, 480)}"/>
+    <map znear="0.005" zfar="30"/>
     <quality shadowsize="2048"/>
     <headlight ambient="0.35 0.35 0.35" diffuse="0.5 0.5 0.5" specular="0.1 0.1 0.1"/>
   </visual>
@@ -231,7 +251,8 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int]) -> Scene:
       width="64" height="64"/>
     <texture name="floor" type="2d" builtin="checker" rgb1="0.82 0.82 0.80" rgb2="0.74 0.74 0.72"
       width="256" height="256"/>
-    <material name="floor" texture="floor" texrepeat="8 8" reflectance="0.05"/>
+    <material name="floor" texture="floor" texrepeat="1 1" texuniform="true" specular="0"
+      shininess="0"/>
   </asset>
   <default>
 {robot_default}
@@ -255,9 +276,7 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int]) -> Scene:
   </actuator>
 </mujoco>
 """
-    drawers = {
-        d.name: (fname, d.joint) for fname, fa in fixtures.items() for d in fa.drawers
-    }
+    drawers = {d.name: (fname, d.joint) for fname, fa in fixtures.items() for d in fa.drawers}
     seesaws = {n: a.hinge for n, a in objects.items() if a.hinge is not None}
     camera_names = [*task.cameras, f"{ROBOT_PREFIX}base", f"{ROBOT_PREFIX}wrist"]
     return Scene(xml, objects, fixtures, drawers, seesaws, regions, camera_names, parked)

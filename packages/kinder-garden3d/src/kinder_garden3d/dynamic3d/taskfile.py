@@ -201,7 +201,9 @@ def variant_table() -> list[VariantInfo]:
             stem = path.stem
             prefix = f"{family}-"
             label = stem[len(prefix) :] if stem.startswith(prefix) else stem
-            count = raw.get("count", {}).get("default") if isinstance(raw.get("count"), dict) else None
+            count = (
+                raw.get("count", {}).get("default") if isinstance(raw.get("count"), dict) else None
+            )
             out.append(VariantInfo(family, label, display, count, steps))
             continue
         if not isinstance(variants, dict) or not variants:
@@ -260,7 +262,8 @@ def _subst(x: Any, i: int | None, k: int, n: int | None, where: str) -> Any:
                 raise TaskFileError(f"{where}: 'cycle' used outside a repeated entry")
             return _subst(values[k % len(values)], i, k, n, where)
         return {
-            _subst(key, i, k, n, where): _subst(v, i, k, n, f"{where}.{key}") for key, v in x.items()
+            _subst(key, i, k, n, where): _subst(v, i, k, n, f"{where}.{key}")
+            for key, v in x.items()
         }
     return x
 
@@ -351,8 +354,8 @@ def load_task(task: str, num_objects: int | None = None) -> TaskSpec:
         if bad:
             raise TaskFileError(f"scenes/{scene}.json: <root>: unknown key(s) {bad}")
         for key in ("fixtures", "objects", "regions", "cameras"):
-            if key in scene_raw:
-                raw[key] = {**scene_raw[key], **raw.get(key, {})}
+            if key in scene_raw:  # the task patches the scene (RFC 7386)
+                raw[key] = merge_patch(scene_raw[key], raw.get(key, {}))
         if "static" in scene_raw:
             raw["static"] = [*scene_raw["static"], *raw.get("static", [])]
 
@@ -371,7 +374,9 @@ def load_task(task: str, num_objects: int | None = None) -> TaskSpec:
         name: v.entity(name, spec, f"objects.{name}", OBJECT_TYPES, fixture=False)
         for name, spec in v.obj(raw.get("objects", {}), "objects", None).items()
     }
-    clash = sorted(set(fixtures) & set(objects) | ({ROBOT, GROUND} & (set(fixtures) | set(objects))))
+    clash = sorted(
+        set(fixtures) & set(objects) | ({ROBOT, GROUND} & (set(fixtures) | set(objects)))
+    )
     if clash:
         raise v.error("objects", f"names used twice or reserved: {clash}")
     entities = {**fixtures, **objects}
@@ -392,7 +397,7 @@ def load_task(task: str, num_objects: int | None = None) -> TaskSpec:
     for j, pred in enumerate(v.array(raw.get("initial_state", []), "initial_state")):
         where = f"initial_state[{j}]"
         if not (isinstance(pred, list) and len(pred) == 3 and pred[0] in _PLACEMENT_PREDICATES):
-            raise v.error(where, f"expected [\"on\"|\"in\", entity, region], got {pred!r}")
+            raise v.error(where, f'expected ["on"|"in", entity, region], got {pred!r}')
         _, ent, reg = pred
         if ent != ROBOT and ent not in entities:
             raise v.error(where, f"unknown entity {ent!r}; known: {sorted(entities)}")
@@ -433,7 +438,9 @@ def load_task(task: str, num_objects: int | None = None) -> TaskSpec:
         goal=goal,
         notes=str(raw.get("notes", "")),
         scene=scene,
-        arm_velocity_targets=v.boolean(raw.get("arm_velocity_targets", False), "arm_velocity_targets"),
+        arm_velocity_targets=v.boolean(
+            raw.get("arm_velocity_targets", False), "arm_velocity_targets"
+        ),
         raw=raw,
     )
 
@@ -503,7 +510,9 @@ class _Validator:
         if isinstance(default, str):
             value = self.string(value, where)
             if key == "model" and value not in CHAIR_MODELS:
-                raise self.error(where, f"unknown chair model {value!r}; known: {list(CHAIR_MODELS)}")
+                raise self.error(
+                    where, f"unknown chair model {value!r}; known: {list(CHAIR_MODELS)}"
+                )
             return value
         if isinstance(default, int) and not isinstance(default, bool):
             out = self.integer(value, where)
@@ -517,14 +526,23 @@ class _Validator:
             if key == "leg_height" and out_f < 0:
                 raise self.error(where, f"must be >= 0, got {out_f}")
             return out_f
+        if key == "working_drawers":
+            pairs = self.array(value, where)
+            for j, pair in enumerate(pairs):
+                if not (isinstance(pair, list) and len(pair) == 2
+                        and all(isinstance(v, int) and not isinstance(v, bool) for v in pair)):
+                    raise self.error(f"{where}[{j}]", f"expected [level, cell], got {pair!r}")
+            return value
         if key in ("shelf_partitions", "shelf_drawers"):
             rows = self.array(value, where)
             for j, row in enumerate(rows):
                 self.array(row, f"{where}[{j}]")
                 for c, cell in enumerate(row):
-                    ok = isinstance(cell, bool) if key == "shelf_drawers" else isinstance(
-                        cell, (int, float)
-                    ) and not isinstance(cell, bool)
+                    ok = (
+                        isinstance(cell, bool)
+                        if key == "shelf_drawers"
+                        else isinstance(cell, (int, float)) and not isinstance(cell, bool)
+                    )
                     if not ok:
                         kind = "true/false" if key == "shelf_drawers" else "a number"
                         raise self.error(f"{where}[{j}][{c}]", f"expected {kind}, got {cell!r}")
@@ -594,14 +612,19 @@ class _Validator:
                 )
             boxes.append(b)
         yaw_raw = spec.get("yaw", [[0.0, 0.0]])
-        yaws = [self.vec(y, 2, f"{where}.yaw[{j}]") for j, y in enumerate(self.array(yaw_raw, f"{where}.yaw"))]
+        yaws = [
+            self.vec(y, 2, f"{where}.yaw[{j}]")
+            for j, y in enumerate(self.array(yaw_raw, f"{where}.yaw"))
+        ]
         if len(yaws) == 1:
             yaws = yaws * len(boxes)
         if len(yaws) != len(boxes):
             raise self.error(f"{where}.yaw", f"give one [lo, hi] or one per box ({len(boxes)})")
         for j, (lo, hi) in enumerate(yaws):
             if lo > hi:
-                raise self.error(f"{where}.yaw[{j}]", f"expected [lo, hi] with lo <= hi, got {[lo, hi]}")
+                raise self.error(
+                    f"{where}.yaw[{j}]", f"expected [lo, hi] with lo <= hi, got {[lo, hi]}"
+                )
         rgba = self.rgba(spec["rgba"], f"{where}.rgba") if "rgba" in spec else None
         return RegionSpec(
             name, target, frame, str(align), np.array(boxes), np.radians(np.array(yaws)), rgba
@@ -650,7 +673,7 @@ class _Validator:
                             for j, e in enumerate(x)])  # fmt: skip
         if head in _PLACEMENT_PREDICATES:
             if len(x) != 3:
-                raise self.error(where, f"expected [\"{head}\", entity, region], got {x!r}")
+                raise self.error(where, f'expected ["{head}", entity, region], got {x!r}')
             _, ent, reg = x
             if ent != ROBOT and ent not in objects:
                 raise self.error(where, f"unknown object {ent!r}; known: robot, {sorted(objects)}")
@@ -659,7 +682,7 @@ class _Validator:
             return (str(head), str(ent), str(reg))
         if head == "balanced":
             if len(x) != 3:
-                raise self.error(where, f"expected [\"balanced\", seesaw, tol_deg], got {x!r}")
+                raise self.error(where, f'expected ["balanced", seesaw, tol_deg], got {x!r}')
             _, ent, tol = x
             if ent not in objects or objects[ent].kind != "seesaw":
                 seesaws = sorted(n for n, o in objects.items() if o.kind == "seesaw")

@@ -49,7 +49,7 @@ class BodySpec:
     sphere_radius: float = 0.0  # > 0: a visual-only sphere instead of parts
 
 
-def _shrunk_prism(part: Part) -> tuple[list[list[float]], float]:
+def _shrunk_prism(part: Part) -> list[list[float]]:
     tri = np.array(part.params[:6]).reshape(3, 2)
     hd = part.params[6]
     lengths = np.linalg.norm(np.roll(tri, -1, axis=0) - tri, axis=1)
@@ -64,8 +64,7 @@ def _shrunk_prism(part: Part) -> tuple[list[list[float]], float]:
     scale = (inradius - _HULL_MARGIN) / inradius
     shrunk = centre + (tri - centre) * scale
     hd_in = hd - _HULL_MARGIN
-    verts = [[float(x), float(y), z] for z in (-hd_in, hd_in) for x, y in shrunk]
-    return verts, hd
+    return [[float(x), float(y), z] for z in (-hd_in, hd_in) for x, y in shrunk]
 
 
 def _prism_mesh(part: Part) -> tuple[list[list[float]], list[int]]:
@@ -176,7 +175,7 @@ class PyBulletScene:
                     visualFramePosition=frame, physicsClientId=cid,
                 )  # fmt: skip
             else:
-                hull, _ = _shrunk_prism(part)
+                hull = _shrunk_prism(part)
                 col = (
                     pb.createCollisionShape(
                         pb.GEOM_MESH, vertices=hull, collisionFramePosition=frame,

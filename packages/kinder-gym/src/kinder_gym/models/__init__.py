@@ -15,13 +15,13 @@ from typing import cast
 
 from kinder_core import ObjectCentricEnv
 from kinder_core.registration import FAMILY_SOURCES, family_info
-
 from kinder_gym.model import PlanningModel
 
 #: Family name → ``"module:function"`` building the family's :class:`PlanningModel`.
 MODELS: dict[str, str] = {
     "Motion2D": "kinder_gym.models.kinematic2d.motion2d:create_model",
     "StickButton2D": "kinder_gym.models.kinematic2d.stickbutton2d:create_model",
+    "BaseMotion3D": "kinder_gym.models.kinematic3d.base_motion3d:create_model",
 }
 
 _ID_RE = re.compile(r"^kinder/(?P<family>[A-Za-z0-9]+)(?:-.+?)?-v\d+$")
@@ -57,9 +57,7 @@ def create_model(env: ObjectCentricEnv, family: str | None = None) -> PlanningMo
     fam = family or family_of(env)
     entry_point = MODELS.get(fam)
     if entry_point is None:
-        raise ValueError(
-            f"No planning model for {fam}; families with a model: {sorted(MODELS)}"
-        )
+        raise ValueError(f"No planning model for {fam}; families with a model: {sorted(MODELS)}")
     module_name, _, attr = entry_point.partition(":")
     factory = cast(
         Callable[[ObjectCentricEnv], PlanningModel],

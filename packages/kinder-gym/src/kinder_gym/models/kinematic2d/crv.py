@@ -22,12 +22,16 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
 from kinder_core import Object, ObjectCentricState
-from kinder_garden2d.geometry import wrap_angle
-from kinder_garden2d.geometry import circle_circle_overlap, obb_circle_overlap, obb_obb_overlap
+from kinder_garden2d.geometry import (
+    circle_circle_overlap,
+    obb_circle_overlap,
+    obb_obb_overlap,
+    wrap_angle,
+)
 from kinder_garden2d.kinematic2d.crv import Bodies, KinematicWorld, robot_geometry
 from kinder_garden2d.kinematic2d.object_types import ZOrder
-
 from kinder_gym.motion_planning import FloatArray, plan_se2
 from kinder_gym.skills import Controller, SkillFailure
 
@@ -73,6 +77,9 @@ class CRVController(Controller):
 
     #: Distance (metres / radians) under which a waypoint counts as reached.
     tolerance = 1e-6
+    #: The vacuum setting of the final (motionless) action; None: the last waypoint's setting
+    #: (or the current one when there are no waypoints).
+    vacuum_after: float | None = None
 
     def reset(self, state: ObjectCentricState, params: Sequence[float] | FloatArray) -> None:
         super().reset(state, params)
@@ -82,7 +89,12 @@ class CRVController(Controller):
         self._k = 0
         self._last_config: FloatArray | None = None
         self._last_moved = False
-        self._final_vacuum = self._plan[-1].vacuum if self._plan else float(state[self.robot][VACUUM])
+        if self.vacuum_after is not None:
+            self._final_vacuum = self.vacuum_after
+        elif self._plan:
+            self._final_vacuum = self._plan[-1].vacuum
+        else:
+            self._final_vacuum = float(state[self.robot][VACUUM])
 
     @property
     def robot(self) -> Object:
@@ -96,8 +108,10 @@ class CRVController(Controller):
     def step(self) -> FloatArray:
         assert self.state is not None
         q = robot_config(self.state, self.robot)
-        if self._last_moved and self._last_config is not None and np.allclose(
-            q, self._last_config, atol=1e-12, rtol=0.0
+        if (
+            self._last_moved
+            and self._last_config is not None
+            and np.allclose(q, self._last_config, atol=1e-12, rtol=0.0)
         ):
             raise SkillFailure(f"{type(self).__name__}: the robot is blocked at {q.round(3)}")
         while self._k < len(self._plan):
@@ -142,8 +156,10 @@ class CRVCollisionChecker:
         check_held: bool = True,
     ) -> None:
         self.world = world
-        self.data = state.data.copy()
-        self.robot_vec = self.data[world.robot_idx].copy()
+        self.data: FloatArray = state.data.copy()
+        self.robot_vec: FloatArray = self.data[world.robot_idx].copy()
+        #: The arm joint used for configurations given as ``[x, y, theta]``.
+        self.arm = float(self.robot_vec[ARM_JOINT])
         held = world.suctioned(self.data)
         self.held = held
         bodies = world.object_bodies(self.data)
@@ -185,14 +201,24 @@ class CRVCollisionChecker:
         self._nb = len(o.obbs)
         held_r = 0.0
         if len(self._held_boxes):
-            held_r = max(held_r, float(np.max(
-                np.hypot(self._hb_rel[:, 0], self._hb_rel[:, 1])
-                + np.hypot(self._held_boxes[:, 4], self._held_boxes[:, 5])
-            )))
+            held_r = max(
+                held_r,
+                float(
+                    np.max(
+                        np.hypot(self._hb_rel[:, 0], self._hb_rel[:, 1])
+                        + np.hypot(self._held_boxes[:, 4], self._held_boxes[:, 5])
+                    )
+                ),
+            )
         if len(self._held_circles):
-            held_r = max(held_r, float(np.max(
-                np.hypot(self._hc_rel[:, 0], self._hc_rel[:, 1]) + self._held_circles[:, 2]
-            )))
+            held_r = max(
+                held_r,
+                float(
+                    np.max(
+                        np.hypot(self._hc_rel[:, 0], self._hc_rel[:, 1]) + self._held_circles[:, 2]
+                    )
+                ),
+            )
         self._held_r = held_r
         self._group_masks: dict[float, tuple[NDArray[np.bool_], NDArray[np.bool_]]] = {}
         self.checks = 0
@@ -204,7 +230,10 @@ class CRVCollisionChecker:
             o = self.obstacles
 
             def hits(oz: FloatArray) -> NDArray[np.bool_]:
-                return ((oz == z) | (oz == ZOrder.ALL) | (z == ZOrder.ALL)) & (oz != ZOrder.NONE)
+                out: NDArray[np.bool_] = ((oz == z) | (oz == ZOrder.ALL) | (z == ZOrder.ALL)) & (
+                    oz != ZOrder.NONE
+                )
+                return out
 
             got = (hits(o.rz), hits(o.cz))
             self._group_masks[z] = got
@@ -235,18 +264,18 @@ class CRVCollisionChecker:
                 return True
         return False
 
-    def robot_vector(self, config: Sequence[float]) -> FloatArray:
+    def robot_vector(self, config: Sequence[float] | FloatArray) -> FloatArray:
         """The robot's features with its pose (and arm joint, if given) set to ``config``."""
         vec = self.robot_vec.copy()
         vec[X], vec[Y], vec[THETA] = config[0], config[1], config[2]
-        if len(config) > 3:
-            vec[ARM_JOINT] = config[3]
-        return vec
+        vec[ARM_JOINT] = config[3] if len(config) > 3 else self.arm
+        out: FloatArray = vec
+        return out
 
-    def data_at(self, config: Sequence[float]) -> FloatArray:
+    def data_at(self, config: Sequence[float] | FloatArray) -> FloatArray:
         """The state's data with the robot at ``config`` (``[x, y, theta]`` or with the arm
         joint as a fourth entry) and held objects carried along."""
-        data = self.data.copy()
+        data: FloatArray = self.data.copy()
         vec = self.robot_vector(config)
         data[self.world.robot_idx] = vec
         if self.held.size:
@@ -257,12 +286,12 @@ class CRVCollisionChecker:
             )
         return data
 
-    def __call__(self, config: Sequence[float]) -> bool:
+    def __call__(self, config: Sequence[float] | FloatArray) -> bool:
         """True when nothing the robot moves collides at ``config``."""
         self.checks += 1
         x, y, th = float(config[0]), float(config[1]), float(config[2])
         v = self.robot_vec
-        aj = float(config[3]) if len(config) > 3 else float(v[ARM_JOINT])
+        aj = float(config[3]) if len(config) > 3 else self.arm
         br, gh, gw = float(v[BASE_RADIUS]), float(v[GRIPPER_HEIGHT]), float(v[GRIPPER_WIDTH])
         reach = max(br, math.hypot(aj + 0.5 * gw, 0.5 * gh))
         if self._held_r > 0.0:
@@ -295,8 +324,11 @@ class CRVCollisionChecker:
             circles[:, :2] = _from_frame(self._hc_rel, tip, th)
             for z in np.unique(np.concatenate([self._held_box_z, self._held_circle_z])):
                 if self._collides(
-                    float(z), boxes[self._held_box_z == z], circles[self._held_circle_z == z],
-                    nb, nc,
+                    float(z),
+                    boxes[self._held_box_z == z],
+                    circles[self._held_circle_z == z],
+                    nb,
+                    nc,
                 ):
                     return False
         return True
@@ -317,8 +349,10 @@ def _from_frame(points: FloatArray, origin: FloatArray, theta: float) -> FloatAr
     """Points of the frame at ``origin`` rotated by ``theta``, in world coordinates."""
     c, s = math.cos(theta), math.sin(theta)
     return np.column_stack(
-        [origin[0] + c * points[:, 0] - s * points[:, 1],
-         origin[1] + s * points[:, 0] + c * points[:, 1]]
+        [
+            origin[0] + c * points[:, 0] - s * points[:, 1],
+            origin[1] + s * points[:, 0] + c * points[:, 1],
+        ]
     )
 
 
@@ -338,7 +372,12 @@ def plan_base_path(
 ) -> list[FloatArray]:
     """A collision-free SE(2) path for the base (arm fixed), or SkillFailure."""
     path = plan_se2(
-        start[:3], goal[:3], checker, bounds, max_step=(0.01, 0.01, math.pi / 64), seed=seed,
+        start[:3],
+        goal[:3],
+        checker,
+        bounds,
+        max_step=(0.01, 0.01, math.pi / 64),
+        seed=seed,
         timeout=timeout,
     )
     if path is None:

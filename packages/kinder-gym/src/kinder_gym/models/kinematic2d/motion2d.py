@@ -21,10 +21,10 @@ from collections.abc import Sequence
 
 import numpy as np
 from gymnasium import spaces
+
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden2d.kinematic2d.object_types import CRV_ROBOT, RECTANGLE, TARGET_REGION
 from kinder_garden2d.kinematic2d.predicates import robot_in_region
-
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.kinematic2d.crv import (
@@ -61,9 +61,9 @@ MOVE_TO_TARGET = LiftedOperator(
 )
 
 
-def world_sampling_bounds(env: ObjectCentricEnv, margin: float) -> tuple[
-    tuple[float, float], tuple[float, float]
-]:
+def world_sampling_bounds(
+    env: ObjectCentricEnv, margin: float
+) -> tuple[tuple[float, float], tuple[float, float]]:
     """The env's world box shrunk by ``margin`` (metres), for sampling base poses."""
     xmin, xmax, ymin, ymax = env.config.world_bounds  # type: ignore[attr-defined]
     return (xmin + margin, xmax - margin), (ymin + margin, ymax - margin)

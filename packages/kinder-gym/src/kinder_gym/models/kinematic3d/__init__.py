@@ -1,1 +1,5 @@
-"""Planning models of the Kinematic3D families (import kinder_garden3d lazily, inside each model module)."""
+"""Planning models of the Kinematic3D families.
+
+Each model module imports kinder_garden3d lazily (inside the module), so kinder-gym imports
+without the 3D extra.
+"""

@@ -1,0 +1,183 @@
+"""The bilevel planning baseline: hFF, the plan enumerator, refinement and the agent."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+
+from kinder_bench.agents import make_agent
+from kinder_bench.agents.base import AgentFailure
+from kinder_bench.baselines.bilevel_planning import (
+    BilevelPlanner,
+    BilevelPlanningAgent,
+    BilevelPlanningArgs,
+    plan_episode,
+    use_model,
+)
+from kinder_bench.baselines.bilevel_search import HFF, abstract_plans
+from kinder_core import make_object_centric
+from kinder_core.wrappers import BoxObservation
+from kinder_gym.operators import ground_operators
+from kinder_gym.testing import (
+    PICK,
+    InRegion,
+    ToyPlaceEnv,
+    make_toy_model,
+)
+
+AGENT = "kinder_bench.baselines.bilevel_planning:BilevelPlanningAgent"
+
+
+def _toy() -> tuple[ToyPlaceEnv, Any]:
+    env = ToyPlaceEnv()
+    x0, _ = env.reset(seed=0)
+    return env, x0
+
+
+def test_hff_on_the_toy_problem() -> None:
+    env, x0 = _toy()
+    model = make_toy_model(env)
+    ops = ground_operators(model.operators, x0.objects)
+    s0 = model.abstract(x0)
+    goal = frozenset({InRegion.ground([env.target, env.region])})
+    h = HFF(ops, goal, s0)
+    # Relaxed: Pick(target), PlaceIn(target) — the obstruction's delete is ignored.
+    assert h(s0) == 2.0
+    holding = PICK.ground([env.robot, env.target]).apply(s0)
+    assert h(holding) == 1.0
+    assert h(goal | s0) == 0.0
+    assert h(frozenset()) == math.inf  # no HandEmpty: nothing applies
+
+
+@pytest.mark.parametrize("algorithm", ["astar", "gbfs"])
+def test_plan_enumerator_yields_distinct_plans_in_order(algorithm: str) -> None:
+    env, x0 = _toy()
+    model = make_toy_model(env)
+    ops = ground_operators(model.operators, x0.objects)
+    s0 = model.abstract(x0)
+    goal = model.goal(x0)
+    plans = list(
+        abstract_plans(
+            s0, goal, ops, np.random.default_rng(0), algorithm, max_expansions_per_state=3
+        )
+    )
+    names = [str(p) for p in plans]
+    assert len(set(names)) == len(names) >= 2
+    assert str(plans[0]) == "Pick(robot, target) → PlaceIn(robot, target, region)"
+    assert len(plans[1]) == 4
+    for p in plans:
+        assert goal <= p.states[-1]
+        for i, op in enumerate(p.operators):
+            assert op.applicable(p.states[i]) and op.apply(p.states[i]) == p.states[i + 1]
+
+
+@pytest.mark.parametrize("search", ["astar", "gbfs"])
+def test_refinement_backtracks_to_the_second_abstract_plan(search: str) -> None:
+    env, x0 = _toy()
+    planner = BilevelPlanner(make_toy_model(env), BilevelPlanningArgs(search=search))
+    plan = planner.plan(x0, np.random.default_rng(0))
+    assert plan is not None
+    assert planner.stats.abstract_plans == 2  # the 2-step plan cannot be refined
+    assert [name for name, _, _ in plan.skills] == [
+        "Pick(robot, obstruction)",
+        "PlaceOut(robot, obstruction, region)",
+        "Pick(robot, target)",
+        "PlaceIn(robot, target, region)",
+    ]
+    state = x0
+    for t, action in enumerate(plan.actions):
+        assert plan.states[t] == state
+        state, _, terminated = env.transition(state, action)
+    assert terminated
+    again = BilevelPlanner(make_toy_model(env), BilevelPlanningArgs(search=search)).plan(
+        x0, np.random.default_rng(0)
+    )
+    assert again is not None and all(
+        np.array_equal(a, b) for a, b in zip(plan.actions, again.actions)
+    )
+
+
+def test_no_plan_within_budget_returns_none() -> None:
+    env, x0 = _toy()
+    planner = BilevelPlanner(make_toy_model(env), BilevelPlanningArgs(max_abstract_plans=1))
+    assert planner.plan(x0, np.random.default_rng(0)) is None
+    assert planner.stats.abstract_plans == 1 and planner.stats.skill_failures >= 1
+
+
+def test_args_are_validated() -> None:
+    with pytest.raises(ValueError, match="search must be one of"):
+        BilevelPlanningArgs(search="dfs")
+    with pytest.raises(ValueError, match="samples_per_step"):
+        BilevelPlanningArgs(samples_per_step=0)
+
+
+def test_agent_on_toy_env_replans_after_divergence() -> None:
+    env = BoxObservation(ToyPlaceEnv())
+    use_model(env.unwrapped, make_toy_model(env.unwrapped))  # type: ignore[arg-type]
+    agent = make_agent(AGENT, env, {}, seed=0)
+    assert isinstance(agent, BilevelPlanningAgent)
+    obs, info = env.reset(seed=0)
+    agent.reset(obs, info)
+    obs, *_ = env.step(agent.act(obs))
+    # Disturb the live episode: the robot is pushed back; the agent must notice and re-plan.
+    state = env.unwrapped.get_state()  # type: ignore[attr-defined]
+    state.set(env.unwrapped.robot, "x", 0.0)  # type: ignore[attr-defined]
+    env.unwrapped.set_state(state)  # type: ignore[attr-defined]
+    obs = env.unwrapped.box_space.vectorize(state)  # type: ignore[attr-defined]
+    for _ in range(100):
+        obs, _, terminated, _, _ = env.step(agent.act(obs))
+        if terminated:
+            break
+    assert terminated
+    assert agent.replans == 1
+
+
+def test_agent_without_replanning_budget_fails_on_divergence() -> None:
+    env = BoxObservation(ToyPlaceEnv())
+    use_model(env.unwrapped, make_toy_model(env.unwrapped))  # type: ignore[arg-type]
+    agent = make_agent(AGENT, env, {"max_replans": 0}, seed=0)
+    obs, info = env.reset(seed=0)
+    agent.reset(obs, info)
+    obs = obs.copy()
+    obs[0] += 0.05  # a noisy observation of the robot's x
+    with pytest.raises(AgentFailure, match="re-planning budget"):
+        agent.act(obs)
+
+
+@pytest.mark.parametrize(
+    ("env_id", "seeds"),
+    [
+        ("kinder/Motion2D-p0-v0", range(3)),
+        ("kinder/Motion2D-p2-v0", range(2)),
+        ("kinder/StickButton2D-b1-v0", range(3)),
+        ("kinder/StickButton2D-b3-v0", range(2)),
+    ],
+)
+def test_solves_small_seeded_instances(env_id: str, seeds: range) -> None:
+    env = make_object_centric(env_id)
+    for seed in seeds:
+        x0, _ = env.reset(seed=seed)
+        plan, stats = plan_episode(env, x0, BilevelPlanningArgs(planning_timeout=30), seed=seed)
+        assert plan is not None, (env_id, seed, stats)
+        state = x0
+        terminated = False
+        for action in plan.actions:
+            state, _, terminated = env.transition(state, action)
+        assert terminated, (env_id, seed)
+
+
+def test_agent_runs_a_registered_episode() -> None:
+    from kinder_bench.envs import make_env
+
+    env = make_env("kinder/StickButton2D-b1-v0")
+    agent = make_agent(AGENT, env, {}, seed=1)
+    obs, info = env.reset(seed=5)
+    agent.reset(obs, info)
+    for _ in range(500):
+        obs, _, terminated, truncated, _ = env.step(agent.act(obs))
+        if terminated or truncated:
+            break
+    assert terminated and agent.replans == 0

@@ -1,0 +1,31 @@
+"""Registration of every Dynamic3D task file's ids (JSON only: MuJoCo is not imported).
+
+Each file under ``tasks/<Family>/`` registers ``kinder/<Family>-<variant>-v0`` for every entry of
+its ``variants`` (or one id named after the file stem when it has none). The kwargs are the task
+file and, for counted tasks, ``num_objects``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from kinder_core.registration import register_family
+from kinder_garden3d.dynamic3d.taskfile import variant_table
+
+ENTRY_POINT = "kinder_garden3d.dynamic3d.env:Dynamic3DEnv"
+
+
+def register_dynamic3d() -> list[str]:
+    """Register every bundled Dynamic3D task variant; returns the ids."""
+    families: dict[str, dict[str, dict[str, Any]]] = {}
+    steps: dict[str, int] = {}
+    for info in variant_table():
+        kwargs: dict[str, Any] = {"task": info.file}
+        if info.count is not None:
+            kwargs["num_objects"] = info.count
+        families.setdefault(info.family, {})[info.label] = kwargs
+        steps[info.family] = max(steps.get(info.family, 0), info.max_episode_steps)
+    ids: list[str] = []
+    for family, variants in families.items():
+        ids += register_family(family, ENTRY_POINT, variants, steps[family])
+    return ids
