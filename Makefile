@@ -21,7 +21,7 @@ sync: bootstrap  ## Create .venv from uv.lock (all packages, dev tools; no torch
 	$(UV) sync --locked --all-packages
 
 demo: sync  ## The main job: a small benchmark run with a results table and a GIF.
-	$(UV) run --no-sync python tools/demo.py
+	$(UV) run --no-sync kinder demo
 
 lint: sync  ## ruff lint and format check.
 	$(UV) run --no-sync ruff check .

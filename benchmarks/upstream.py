@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import shutil
 import statistics
 import subprocess
@@ -54,10 +55,12 @@ def run_speed(
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
     with tempfile.TemporaryDirectory() as tmp:  # outside the repo: no workspace on the path
         out = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp, env=env)
-    lines = [ln for ln in out.stdout.splitlines() if ln.startswith("{")]
-    if not lines:
+    # Simulators may print to stdout without a newline (upstream pybullet prints "base_root"), so
+    # take the last JSON object on any line.
+    found = re.findall(r"\{.*\}", out.stdout)
+    if not found:
         return {"env": env_id, "error": (out.stderr or out.stdout)[-400:]}
-    rec: dict[str, Any] = json.loads(lines[-1])
+    rec: dict[str, Any] = json.loads(found[-1])
     return rec
 
 

@@ -142,10 +142,10 @@ def _third_seed() -> int:
 
 
 class SlowAgent(Agent[NoArgs]):
-    """Stays still, slowly (10 ms per action): gives a test time to kill a run midway."""
+    """Stays still, slowly (5 ms per action): gives a test time to kill a run midway."""
 
     name = "slow"
 
     def act(self, obs: Any) -> NDArray[np.float64]:
-        time.sleep(0.01)
+        time.sleep(0.005)
         return np.zeros(2)

@@ -145,7 +145,7 @@ def test_resume_after_killing_the_whole_process_group(toy_id: str, tmp_path: Pat
     run_dir = tmp_path / "run"
     cmd = [
         sys.executable, "-m", "kinder_bench", "bench", "run", "--env", toy_id,
-        "--agent", "kinder_bench_toy:SlowAgent", "--seeds", "0-1", "--episodes", "10",
+        "--agent", "kinder_bench_toy:SlowAgent", "--seeds", "0-1", "--episodes", "6",
         "--out", str(run_dir), "--workers", "2", "--no-progress", "--no-report",
         "--import", "kinder_bench_toy",
     ]  # fmt: skip
@@ -163,12 +163,12 @@ def test_resume_after_killing_the_whole_process_group(toy_id: str, tmp_path: Pat
         proc.wait()
     assert proc.returncode == -signal.SIGKILL, proc.stderr.read() if proc.stderr else ""
     before = load_records(run_dir)
-    assert 3 <= len(before) < 20
-    runs = [RunConfig(toy_id, "kinder_bench_toy:SlowAgent", {}, (0, 1), 10)]
+    assert 3 <= len(before) < 12
+    runs = [RunConfig(toy_id, "kinder_bench_toy:SlowAgent", {}, (0, 1), 6)]
     resumed = _bench(runs, run_dir, executor="process", workers=2)
-    assert resumed.num_ran == 20 - len(before)
+    assert resumed.num_ran == 12 - len(before)
     keys = [(r["seed"], r["episode"]) for r in load_records(run_dir)]
-    assert sorted(keys) == [(s, e) for s in (0, 1) for e in range(10)]
+    assert sorted(keys) == [(s, e) for s in (0, 1) for e in range(6)]
 
 
 def test_agent_crash_is_recorded_as_a_failure(toy_id: str, tmp_path: Path) -> None:

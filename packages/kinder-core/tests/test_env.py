@@ -141,3 +141,19 @@ def test_sync_and_async_vector_envs_agree(toy_id: str) -> None:
     from kinder_core.testing import check_vector_consistency
 
     check_vector_consistency(toy_id)
+
+
+def test_checker_accepts_unbounded_box_features() -> None:
+    import gymnasium
+
+    from kinder_core.testing import check_gymnasium_checker
+
+    env_id = "kinder/UnboundedToyReach-v0"
+    if env_id not in gymnasium.registry:
+        gymnasium.register(
+            id=env_id,
+            entry_point="kinder_core.registration:make_box_env",
+            kwargs={"env_entry_point": "toy_env:UnboundedToyReach"},
+            max_episode_steps=50,
+        )
+    check_gymnasium_checker(env_id)

@@ -113,3 +113,32 @@ class LeakyToyReach(ToyReach):
         state = super()._transition(state, action)
         state[self.pebbles[0]][0] += 1e-3 * self._hidden
         return state
+
+
+class UnboundedToyReach(ToyReach):
+    """ToyReach without finite feature bounds (every Box entry is ±inf).
+
+    ## Description
+    Checks that unbounded Box views pass the test kit.
+
+    ## Observation Space
+    As ToyReach, unbounded.
+
+    ## Action Space
+    As ToyReach.
+
+    ## Reward
+    −1 per step.
+
+    ## Starting State
+    As ToyReach.
+
+    ## Episode End
+    As ToyReach.
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    def feature_bounds(self) -> dict[str, tuple[float, float]]:
+        return {}

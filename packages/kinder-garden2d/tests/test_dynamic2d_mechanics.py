@@ -230,7 +230,8 @@ def test_tunnelling_is_detected_and_discarded() -> None:
     s = env.get_state()
     s.set(b, "vy", -500.0)  # would leave through the table and the floor in one action
     env.set_state(s)
-    out, *_ = env.step(np.zeros(5))
+    with pytest.warns(UserWarning, match="discarded"):
+        out, *_ = env.step(np.zeros(5))
     assert env.num_physics_reverts == 1
     expected = s.copy()
     expected.set(b, "vy", 0.0)

@@ -109,9 +109,10 @@ def test_push_out_separates_with_the_smallest_move(local: tuple[float, float]) -
     assert obb_circle_overlap(box[None], circle[None])[0, 0]
     move = circle_push_out_of_obb(box, circle)
     moved = circle + np.array([*move, 0.0])
-    assert not obb_circle_overlap(box[None], (moved - [0, 0, 1e-9])[None])[0, 0]
+    shrink, grow = np.array([0.0, 0.0, -1e-9]), np.array([0.0, 0.0, 1e-6])
+    assert not obb_circle_overlap(box[None], (moved + shrink)[None])[0, 0]
     # Nearly touching afterwards: not pushed farther than needed.
-    assert obb_circle_overlap(box[None], (moved + [0, 0, 1e-6])[None])[0, 0]
+    assert obb_circle_overlap(box[None], (moved + grow)[None])[0, 0]
 
 
 def test_push_out_is_zero_when_apart() -> None:

@@ -134,5 +134,5 @@ def test_reward_on_the_goal_step(env, reward_on_goal: float) -> None:  # type: i
     else:
         g = env.target_region
         set_pose(s, env.robot, s.get(g, "x") - 0.02, s.get(g, "y") + 0.1)
-    nxt, reward, term = env.transition(s, np.array([0.04, 0.0, 0.0, 0.0, 0.0]))
+    _nxt, reward, term = env.transition(s, np.array([0.04, 0.0, 0.0, 0.0, 0.0]))
     assert term and reward == reward_on_goal

@@ -7,7 +7,6 @@ import pytest
 
 import kinder_core
 import kinder_garden3d  # noqa: F401  (registers the ids)
-
 from kinder_garden3d.kinematic3d.base_motion3d import BaseMotion3DEnv
 from kinder_garden3d.kinematic3d.obstruction3d import Obstruction3DEnv
 from kinder_garden3d.kinematic3d.packing3d import Packing3DEnv

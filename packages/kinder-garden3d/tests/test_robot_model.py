@@ -114,6 +114,36 @@ def test_mjcf_exposes_the_dynamic3d_interface():
     assert fixed.nq == 9 and fixed.nu == 8
 
 
+def test_position_servo_variant_holds_the_retract_pose_under_gravity():
+    model = mujoco.MjModel.from_xml_string(to_mjcf(free_base=False, arm_actuators="position"))
+    data = mujoco.MjData(model)
+    arm = [model.jnt_qposadr[model.joint(n).id] for n in DESC.arm_joint_names]
+    data.qpos[arm] = RETRACT
+    for i in range(7):
+        data.ctrl[model.actuator(f"arm_{i + 1}").id] = RETRACT[i]
+    mujoco.mj_step(model, data, nstep=2000)  # 1 s
+    assert np.abs(data.qpos[arm] - np.array(RETRACT)).max() < 0.05
+    with pytest.raises(ValueError, match="arm_actuators"):
+        to_mjcf(arm_actuators="velocity")  # type: ignore[arg-type]
+
+
+def test_torque_motors_with_pd_and_gravity_compensation_track_a_target():
+    model = mujoco.MjModel.from_xml_string(to_mjcf(free_base=False))
+    data = mujoco.MjData(model)
+    arm_q = [model.jnt_qposadr[model.joint(n).id] for n in DESC.arm_joint_names]
+    arm_v = [model.jnt_dofadr[model.joint(n).id] for n in DESC.arm_joint_names]
+    acts = [model.actuator(f"arm_{i + 1}").id for i in range(7)]
+    kp = np.array([200.0] * 4 + [100.0] * 3)
+    kd = np.array([30.0] * 4 + [15.0] * 3)
+    data.qpos[arm_q] = RETRACT
+    target = np.array(RETRACT) + np.array([0.3, 0.2, 0.0, 0.3, 0.0, 0.2, 0.0])
+    for _ in range(4000):  # 2 s at 0.5 ms
+        q, qd = data.qpos[arm_q], data.qvel[arm_v]
+        data.ctrl[acts] = kp * (target - q) - kd * qd + data.qfrc_bias[arm_v]
+        mujoco.mj_step(model, data)
+    assert np.abs(data.qpos[arm_q] - target).max() < 0.02
+
+
 def test_base_camera_matches_tidybot_euler():
     model = mujoco.MjModel.from_xml_string(to_mjcf())
     data = mujoco.MjData(model)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import json
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated, Any, NoReturn
@@ -11,6 +10,7 @@ from typing import Annotated, Any, NoReturn
 import numpy as np
 import typer
 
+import kinder_core
 from kinder_bench.agents import AGENTS, agent_class, describe_args
 from kinder_bench.executors import EXECUTORS
 from kinder_bench.recording import VIDEO_FORMATS
@@ -145,7 +145,11 @@ def envs(
 def agents() -> None:
     """List the agents and their arguments (defaults and meaning)."""
     for name in AGENTS:
-        cls = agent_class(name)
+        try:
+            cls = agent_class(name)
+        except ValueError as e:  # e.g. an optional dependency is missing
+            typer.echo(f"{name}  (unavailable: {e})")
+            continue
         doc = (cls.__doc__ or "").strip().splitlines()[0]
         typer.secho(f"{name}", bold=True, nl=False)
         typer.echo(f"  {doc}")
@@ -355,7 +359,11 @@ def demo(
     typer.echo(result.table)
     for path in result.files:
         typer.echo(f"wrote {path}")
-    typer.echo(json.dumps({"seconds": round(result.seconds, 1)}), err=True)
+    n_envs = len(kinder_core.list_envs())
+    typer.echo(
+        f"demo finished in {result.seconds:.1f} s; {n_envs} environments are registered "
+        f"(`kinder envs` lists them)"
+    )
 
 
 def main() -> None:

@@ -7,6 +7,7 @@ a line is either fully there or (after a crash in the middle of the write) a par
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import platform
@@ -31,15 +32,20 @@ _VERSIONED = (
 )
 
 
-def package_versions() -> dict[str, str]:
-    """Versions of Python and of the packages that decide a result."""
-    out = {"python": platform.python_version()}
+@functools.cache
+def _versions() -> tuple[tuple[str, str], ...]:
+    out = [("python", platform.python_version())]
     for name in _VERSIONED:
         try:
-            out[name] = metadata.version(name)
+            out.append((name, metadata.version(name)))
         except metadata.PackageNotFoundError:
             continue
-    return out
+    return tuple(out)
+
+
+def package_versions() -> dict[str, str]:
+    """Versions of Python and of the packages that decide a result."""
+    return dict(_versions())
 
 
 def load_records(path: Path | str) -> list[dict[str, Any]]:

@@ -226,7 +226,7 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         "env_seed": task.env_seed,
         "agent_seed": task.agent_seed,
     }
-    success, reward, steps = False, 0.0, 0
+    success, steps, total_reward = False, 0, 0.0
     inference_time = env_time = 0.0
     error: str | None = None
     error_in: str | None = None
@@ -258,7 +258,7 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
             obs, r, terminated, truncated, info = env.step(action)
             env_time += time.perf_counter() - t0
             steps += 1
-            reward += float(r)
+            total_reward += float(r)
             if frames is not None:
                 frames.append(env.render())
             if terminated:
@@ -270,6 +270,10 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         error = f"{type(e).__name__}: {e}"
         error_in = phase
         trace = traceback.format_exc()[-4000:]
+    reward: float | None = total_reward
+    if not np.isfinite(total_reward):  # would not survive JSON, and is an env bug anyway
+        success, reward = False, None
+        error, error_in = f"ValueError: the env's rewards sum to {total_reward}", "env"
     video = None
     if frames and task.video_path:
         try:

@@ -400,6 +400,7 @@ class Simulation:
             lib.cpSpaceRemoveBody(self.space, b)
         self._added_shapes.clear()
         self._added_bodies.clear()
+        self._handlers.clear()  # breaks the handler ↔ simulation cycle: the space is freed now
 
     def __enter__(self) -> Simulation:
         return self

@@ -30,7 +30,10 @@ from kinder_garden3d.dynamic3d.taskfile import ROBOT, TaskSpec, load_task
 from kinder_garden3d.robot.description import GRIPPER_STROKE, RETRACT, robot_description
 
 # Headless rendering: EGL unless the user chose a backend (osmesa, glfw) before importing.
+# PyOpenGL must agree; set it here too in case OpenGL is imported before MuJoCo's own GL setup.
 os.environ.setdefault("MUJOCO_GL", "egl")
+if os.environ["MUJOCO_GL"] in ("egl", "osmesa"):
+    os.environ.setdefault("PYOPENGL_PLATFORM", os.environ["MUJOCO_GL"])
 import mujoco  # noqa: E402
 
 _SIM_STATE_SPEC = int(

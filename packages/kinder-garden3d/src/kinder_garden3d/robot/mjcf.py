@@ -7,7 +7,8 @@ The model contains:
 * the 7 Gen3 hinges ``joint_1`` … ``joint_7`` and the two finger slides, coupled by an equality
   constraint;
 * actuators: position servos ``base_x``, ``base_y``, ``base_th`` on the base joints; torque motors
-  ``arm_1`` … ``arm_7`` (limits 200/100 N m as in the TidyBot++ model); ``fingers_actuator``, a
+  ``arm_1`` … ``arm_7`` (limits 200/100 N m as in the TidyBot++ model), or joint position servos
+  with ``arm_actuators="position"``; ``fingers_actuator``, a
   position-like servo with ctrl in [0, 255] (0 = open, 255 = closed);
 * sites ``pinch_site`` (the tool centre point), ``flange`` and ``arm_base``; cameras ``base`` and
   ``wrist``;
@@ -22,6 +23,7 @@ e.g. with ``mujoco.MjSpec.from_string(to_mjcf()).attach`` or by splicing the str
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -38,6 +40,9 @@ from kinder_garden3d.robot.description import (
 
 #: Torque limits of the arm motors (N m), as in the TidyBot++ MJCF used by Dynamic3D.
 ARM_TORQUE_LIMITS = (200.0, 200.0, 200.0, 200.0, 100.0, 100.0, 100.0)
+#: Gains of the optional arm position servos (kp as in the prbench TidyBot++ copy; kv ours).
+ARM_POSITION_KP = (2000.0, 2000.0, 2000.0, 2000.0, 500.0, 500.0, 500.0)
+ARM_POSITION_KV = (100.0, 100.0, 100.0, 100.0, 30.0, 30.0, 30.0)
 
 
 def _f(values: tuple[float, ...] | list[float]) -> str:
@@ -73,9 +78,19 @@ def _geom_xml(geom: Geom, prefix: str, indent: str) -> str:
 
 
 def mjcf_parts(
-    desc: RobotDescription | None = None, prefix: str = "", free_base: bool = True
+    desc: RobotDescription | None = None,
+    prefix: str = "",
+    free_base: bool = True,
+    arm_actuators: Literal["motor", "position"] = "motor",
 ) -> MjcfParts:
-    """Return the worldbody/actuator/equality/default fragments of the robot MJCF."""
+    """Return the worldbody/actuator/equality/default fragments of the robot MJCF.
+
+    ``arm_actuators="motor"`` gives torque motors (ctrl in N m, for a PD + gravity-compensation
+    loop in Python, as upstream Dynamic3D); ``"position"`` gives joint position servos (ctrl in
+    rad; kp :data:`ARM_POSITION_KP`, force limited to the same torque limits).
+    """
+    if arm_actuators not in ("motor", "position"):
+        raise ValueError(f"arm_actuators must be 'motor' or 'position', got {arm_actuators!r}")
     desc = robot_description() if desc is None else desc
     children: dict[str | None, list[Link]] = {}
     for link in desc.links:
@@ -151,11 +166,20 @@ def mjcf_parts(
                 f"    <position name={quoteattr(prefix + act)} joint={quoteattr(prefix + name)} "
                 f'kp="{kp!r}" kv="{kv!r}" ctrllimited="false"/>'
             )
-    for i, (name, limit) in enumerate(zip(desc.arm_joint_names, ARM_TORQUE_LIMITS, strict=True)):
-        acts.append(
-            f"    <motor name={quoteattr(f'{prefix}arm_{i + 1}')} joint={quoteattr(prefix + name)} "
-            f'ctrlrange="{-limit!r} {limit!r}" ctrllimited="true"/>'
-        )
+    gains = zip(desc.arm_joint_names, ARM_TORQUE_LIMITS, ARM_POSITION_KP, ARM_POSITION_KV)
+    for i, (name, limit, kp_arm, kv_arm) in enumerate(gains):
+        act_name, joint_name = quoteattr(f"{prefix}arm_{i + 1}"), quoteattr(prefix + name)
+        if arm_actuators == "motor":
+            acts.append(
+                f"    <motor name={act_name} joint={joint_name} "
+                f'ctrlrange="{-limit!r} {limit!r}" ctrllimited="true"/>'
+            )
+        else:
+            acts.append(
+                f'    <position name={act_name} joint={joint_name} kp="{kp_arm!r}" '
+                f'kv="{kv_arm!r}" forcerange="{-limit!r} {limit!r}" forcelimited="true" '
+                'ctrllimited="false"/>'
+            )
     # Finger servo: force = kp * (ctrl * stroke/2/255 - q) - kv * qdot on the left pad.
     kp, kv = 2000.0, 50.0
     gain = kp * 0.5 * GRIPPER_STROKE / 255.0
@@ -181,9 +205,10 @@ def to_mjcf(
     prefix: str = "",
     free_base: bool = True,
     with_floor: bool = False,
+    arm_actuators: Literal["motor", "position"] = "motor",
 ) -> str:
-    """Return a standalone MJCF model of the robot as a string."""
-    parts = mjcf_parts(desc, prefix, free_base)
+    """Return a standalone MJCF model of the robot as a string (see :func:`mjcf_parts`)."""
+    parts = mjcf_parts(desc, prefix, free_base, arm_actuators)
     floor = (
         '    <geom name="floor" type="plane" size="5 5 0.1" rgba="0.8 0.8 0.8 1"/>\n'
         if with_floor

@@ -103,18 +103,23 @@ def to_urdf(desc: RobotDescription | None = None) -> str:
 
 
 @cache
-def urdf_path() -> Path:
-    """Write the URDF once per process into a content-addressed temp file and return its path.
+def _urdf_text() -> str:
+    return to_urdf()
 
-    pybullet can only load URDF files from disk; the file name contains a hash of the content so
-    concurrent processes never see a partly written file of a different version.
+
+def urdf_path() -> Path:
+    """Write the URDF into a content-addressed temp file (once) and return its path.
+
+    pybullet can only load URDF files from disk. The file name carries a hash of the content and
+    is written atomically, so concurrent processes never read a partly written file or one of a
+    different version; it is rewritten if the temp directory was cleaned meanwhile.
     """
-    text = to_urdf()
+    text = _urdf_text()
     digest = hashlib.sha256(text.encode()).hexdigest()[:16]
     directory = Path(tempfile.gettempdir()) / "kinder_garden3d"
-    directory.mkdir(parents=True, exist_ok=True)
     path = directory / f"tidybot_gen3_2f85_{digest}.urdf"
-    if not path.exists() or path.read_text() != text:
+    if not path.exists():
+        directory.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=directory, suffix=".urdf.tmp")
         with os.fdopen(fd, "w") as handle:
             handle.write(text)

@@ -21,6 +21,8 @@ from kinder_gym.model import PlanningModel
 MODELS: dict[str, str] = {
     "Motion2D": "kinder_gym.models.kinematic2d.motion2d:create_model",
     "StickButton2D": "kinder_gym.models.kinematic2d.stickbutton2d:create_model",
+    "DynObstruction2D": "kinder_gym.models.dynamic2d.dyn_obstruction2d:create_model",
+    "DynPushPullHook2D": "kinder_gym.models.dynamic2d.dyn_pushpullhook2d:create_model",
     "BaseMotion3D": "kinder_gym.models.kinematic3d.base_motion3d:create_model",
 }
 

@@ -1,0 +1,327 @@
+"""The DynObstruction2D planning model: clear the target surface, then push the target onto it.
+
+Most blocks are wider than the open fingers (0.26 m between them), so this model moves blocks by
+*pushing* them along the table with a finger, which works for every block size: the robot points
+its gripper straight down (arm extended), descends beside the block so a fingertip is just above
+the table, and moves sideways; the block slides in front of the finger (pushed low, it does not
+topple). Near the end of a push the robot slows down so the block does not slide on.
+
+Concepts:
+
+* ``OnTarget(block, surface)`` / ``NotOnTarget``: the env's goal test for that block (its two
+  lowest corners, moved down by the tolerance, lie on the surface).
+* ``Obstructing(block, surface)`` / ``NotObstructing``: the block's footprint overlaps the
+  surface's x-range (the target cannot fit there).
+* ``HandEmpty(robot)``: nothing is held.
+
+Operators (built per env, over its obstructions):
+
+* ``ClearSurface(?robot, ?obstruction, ?surface)``: pre {HandEmpty, Obstructing}; add
+  {NotObstructing}; delete {Obstructing}. Push the obstruction off the surface's x-range.
+* ``PushTarget(?robot, ?target, ?surface, ?o1, ...)``: pre {HandEmpty, NotOnTarget(target),
+  NotObstructing(o_i) for every obstruction}; add {OnTarget(target)}; delete {NotOnTarget}.
+
+Goal: ``OnTarget(target_block, target_surface)``.
+
+Upstream's model picks blocks with a top grasp (only blocks narrower than the open fingers) and
+places them; it reports 8% success on o1.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from gymnasium import spaces
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden2d.dynamic2d import object_types as ot
+from kinder_garden2d.dynamic2d.geometry import (
+    bounds,
+    is_on,
+    kin_robot_geometry,
+    overlaps,
+    place,
+    rect_shape,
+    transform,
+)
+
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
+from kinder_gym.models.dynamic2d.kin_robot import (
+    ARM_LENGTH,
+    FINGER_GAP,
+    FINGER_HEIGHT,
+    FINGER_WIDTH,
+    GRIPPER_BASE_WIDTH,
+    KinRobotController,
+    KinWaypoint,
+    kin_config,
+    wrap,
+)
+from kinder_gym.motion_planning import FloatArray
+from kinder_gym.operators import LiftedOperator
+from kinder_gym.skills import Skill, SkillFailure
+
+#: Fingertip height above the table top while pushing (metres).
+PUSH_CLEARANCE = 0.012
+#: Extra height (metres) the fingertips keep above every block while travelling.
+TRAVEL_CLEARANCE = 0.06
+#: Gap (metres) between the finger and the block before a push starts.
+APPROACH_GAP = 0.03
+#: The last part of a push (metres) is done at reduced speed.
+SLOW_ZONE = 0.1
+SLOW_SPEED = 0.2
+
+
+def footprint(state: ObjectCentricState, block: Object) -> tuple[float, float]:
+    """The x-extent ``(min, max)`` of a rectangle block (any rotation), metres."""
+    x, th = state.get(block, "x"), state.get(block, "theta")
+    w, h = state.get(block, "width"), state.get(block, "height")
+    half = abs(math.cos(th)) * w / 2 + abs(math.sin(th)) * h / 2
+    return x - half, x + half
+
+
+def top(state: ObjectCentricState, block: Object) -> float:
+    """The highest point of a rectangle block, metres."""
+    y, th = state.get(block, "y"), state.get(block, "theta")
+    w, h = state.get(block, "width"), state.get(block, "height")
+    return y + abs(math.sin(th)) * w / 2 + abs(math.cos(th)) * h / 2
+
+
+def block_on(state: ObjectCentricState, block: Object, surface: Object, tol: float) -> bool:
+    """The env's goal test, for any block."""
+    b, s = state[block], state[surface]
+    bw, bh = state.get(block, "width"), state.get(block, "height")
+    sw, sh = state.get(surface, "width"), state.get(surface, "height")
+    poly_b = transform(rect_shape(bw, bh).polys[0], b[0], b[1], b[2])
+    poly_s = transform(rect_shape(sw, sh).polys[0], s[0], s[1], s[2])
+    return bool(is_on(poly_b, poly_s, tol))
+
+
+class PushController(KinRobotController):
+    """Push a block along the table so its centre ends at a goal x (see the module docstring).
+
+    Objects: ``(robot, block, surface, ...)``. Subclasses say where the block should go
+    (:meth:`goal_x`).
+    """
+
+    def goal_x(self, state: ObjectCentricState) -> float:
+        """Where the block's centre should end (metres)."""
+        del state
+        raise SkillFailure(f"{type(self).__name__} has no goal")
+
+    def waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
+        env = self.context
+        cfg = env.config
+        robot, block = self.objects[0], self.objects[1]
+        v = state[robot]
+        arm = float(v[ARM_LENGTH])
+        reach = arm + float(v[GRIPPER_BASE_WIDTH]) / 2 + float(v[FINGER_WIDTH])
+        gap = float(v[FINGER_GAP])
+        half_span = gap / 2 + float(v[FINGER_HEIGHT]) / 2  # outer face of a finger
+        blocks = [o for o in state.get_objects(ot.DYN_RECTANGLE)]
+        table_top = float(cfg.table_height)
+        highest = max([top(state, b) for b in blocks] + [table_top])
+        y_safe = highest + TRAVEL_CLEARANCE + reach
+        if y_safe + float(v[16]) > cfg.world_max_y - 0.01:
+            raise SkillFailure("no room to travel above the blocks")
+        x_goal = self.goal_x(state)
+        lo, hi = footprint(state, block)
+        x_now = state.get(block, "x")
+        sign = 1.0 if x_goal >= x_now else -1.0
+        # The leading finger's outer face touches the block's trailing side.
+        contact = lo if sign > 0 else hi
+        x_push0 = contact - sign * (half_span + APPROACH_GAP)
+        x_push1 = x_goal - (x_now - contact) - sign * half_span
+        # Fingertips just above the table; the base must clear the pushed block's top.
+        tip = max(table_top + PUSH_CLEARANCE, top(state, block) - (reach - float(v[16])) + 0.01)
+        y_push = tip + reach
+        q = kin_config(state, robot)
+        margin = float(q[3]) + float(v[GRIPPER_BASE_WIDTH]) / 2 + float(v[FINGER_WIDTH]) + 0.03
+        x_turn = float(np.clip(q[0], cfg.world_min_x + margin, cfg.world_max_x - margin))
+        down = -math.pi / 2
+        wps = [
+            KinWaypoint(q[0], max(q[1], y_safe), q[2], q[3], gap),
+            KinWaypoint(x_turn, max(q[1], y_safe), q[2], q[3], gap),
+            KinWaypoint(x_turn, max(q[1], y_safe), wrap(down), q[3], gap),
+            KinWaypoint(x_turn, max(q[1], y_safe), wrap(down), arm, gap),
+            KinWaypoint(x_push0, y_safe, down, arm, gap),
+            KinWaypoint(x_push0, y_push, down, arm, gap),
+        ]
+        self._check_pose(state, wps[-1], exclude=())
+        slow_start = x_push1 - sign * min(SLOW_ZONE, abs(x_push1 - x_push0))
+        wps += [
+            KinWaypoint(slow_start, y_push, down, arm, gap),
+            KinWaypoint(x_push1, y_push, down, arm, gap, speed=SLOW_SPEED, wait=2),
+            KinWaypoint(x_push1 - sign * 0.01, y_push, down, arm, gap, speed=SLOW_SPEED),
+            KinWaypoint(x_push1 - sign * 0.01, y_safe, down, arm, gap, wait=3),
+        ]
+        return wps
+
+    def _check_pose(
+        self, state: ObjectCentricState, wp: KinWaypoint, exclude: Sequence[Object]
+    ) -> None:
+        """SkillFailure when the robot at ``wp`` would touch a block, the table or a wall."""
+        env = self.context
+        cfg = env.config
+        vec = state[self.objects[0]].copy()
+        vec[0], vec[1], vec[2], vec[17], vec[FINGER_GAP] = wp.x, wp.y, wp.theta, wp.arm, wp.gap
+        shape = kin_robot_geometry(vec).shape
+        x0, x1, y0, _ = bounds(shape)
+        if x0 <= cfg.world_min_x or x1 >= cfg.world_max_x or y0 <= cfg.table_height:
+            raise SkillFailure(f"the robot would touch a wall or the table at x={wp.x:.3f}")
+        for b in state.get_objects(ot.DYN_RECTANGLE):
+            if b in exclude:
+                continue
+            w, h = state.get(b, "width"), state.get(b, "height")
+            f = state[b]
+            if overlaps(shape, place(rect_shape(w, h), f[0], f[1], f[2])):
+                raise SkillFailure(f"the robot would touch {b.name} at x={wp.x:.3f}")
+
+
+class ClearSurfaceController(PushController):
+    """Push an obstruction off the surface's x-range. Objects: ``(robot, obstruction, surface)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
+    params_doc = (
+        "(side, extra): side < 0.5 pushes the block to the left of the surface, else to the "
+        "right; its near edge ends extra·0.2 + 0.02 metres beyond the surface's edge."
+    )
+
+    def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
+        """Prefer pushing away from the target block (80%)."""
+        _, block, surface = self.objects[:3]
+        targets = state.get_objects(ot.TARGET_BLOCK)
+        away_right = bool(targets) and state.get(targets[0], "x") < state.get(surface, "x")
+        side = rng.uniform(0.5, 1.0) if away_right else rng.uniform(0.0, 0.5)
+        if rng.uniform() < 0.2:
+            side = 1.0 - side
+        return np.array([side, rng.uniform()])
+
+    def goal_x(self, state: ObjectCentricState) -> float:
+        _, block, surface = self.objects[:3]
+        side, extra = (float(p) for p in self.params)
+        lo, hi = footprint(state, block)
+        half = (hi - lo) / 2
+        s_lo, s_hi = footprint(state, surface)
+        gap = 0.02 + 0.2 * extra
+        return s_hi + gap + half if side >= 0.5 else s_lo - gap - half
+
+
+class PushTargetController(PushController):
+    """Push the target block onto the surface. Objects: ``(robot, target, surface, ...)``."""
+
+    params_space = spaces.Box(-1.0, 1.0, (1,), dtype=np.float64)
+    params_doc = (
+        "(offset,): the block's centre ends offset·0.5·(surface width − block width)/2 metres "
+        "from the surface's centre."
+    )
+
+    def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
+        """Centred pushes first: offsets concentrate around 0."""
+        return np.array([float(np.clip(rng.normal(0.0, 0.3), -1.0, 1.0))])
+
+    def goal_x(self, state: ObjectCentricState) -> float:
+        _, block, surface = self.objects[:3]
+        lo, hi = footprint(state, block)
+        s_lo, s_hi = footprint(state, surface)
+        slack = max(0.0, (s_hi - s_lo) - (hi - lo)) / 2
+        return state.get(surface, "x") + float(self.params[0]) * 0.5 * slack
+
+
+def create_model(env: ObjectCentricEnv) -> PlanningModel:
+    """The DynObstruction2D planning model (any number of obstructions)."""
+    tol = float(env.config.goal_tolerance)  # type: ignore[attr-defined]
+    robot_t, block_t, target_t, surface_t = (
+        ot.KIN_ROBOT,
+        ot.DYN_RECTANGLE,
+        ot.TARGET_BLOCK,
+        ot.TARGET_SURFACE,
+    )
+
+    def on_target(s: ObjectCentricState, o: Sequence[Object]) -> bool:
+        return block_on(s, o[0], o[1], tol)
+
+    def obstructing(s: ObjectCentricState, o: Sequence[Object]) -> bool:
+        lo, hi = footprint(s, o[0])
+        s_lo, s_hi = footprint(s, o[1])
+        return hi > s_lo and lo < s_hi
+
+    def hand_empty(s: ObjectCentricState, o: Sequence[Object]) -> bool:
+        return all(s.get(b, "held") < 0.5 for b in s.get_objects(block_t))
+
+    OnTarget = Predicate("OnTarget", (block_t, surface_t), on_target)
+    NotOnTarget = Predicate("NotOnTarget", (block_t, surface_t), lambda s, o: not on_target(s, o))
+    Obstructing = Predicate("Obstructing", (block_t, surface_t), obstructing)
+    NotObstructing = Predicate(
+        "NotObstructing", (block_t, surface_t), lambda s, o: not obstructing(s, o)
+    )
+    HandEmpty = Predicate("HandEmpty", (robot_t,), hand_empty)
+
+    obstructions = sorted(env.obstructions, key=lambda o: o.name)  # type: ignore[attr-defined]
+    r = Variable("?robot", robot_t)
+    t = Variable("?target", target_t)
+    s = Variable("?surface", surface_t)
+    b = Variable("?block", block_t)
+    os_ = [Variable(f"?o{i}", block_t) for i in range(len(obstructions))]
+    clear = LiftedOperator(
+        "ClearSurface",
+        (r, b, s),
+        frozenset({HandEmpty.lift([r]), Obstructing.lift([b, s])}),
+        frozenset({NotObstructing.lift([b, s])}),
+        frozenset({Obstructing.lift([b, s])}),
+    )
+    push = LiftedOperator(
+        "PushTarget",
+        (r, t, s, *os_),
+        frozenset(
+            {HandEmpty.lift([r]), NotOnTarget.lift([t, s])}
+            | {NotObstructing.lift([o, s]) for o in os_}
+        ),
+        frozenset({OnTarget.lift([t, s])}),
+        frozenset({NotOnTarget.lift([t, s])}),
+    )
+    target_obj = env.target_block  # type: ignore[attr-defined]
+    surface_obj = env.target_surface  # type: ignore[attr-defined]
+
+    def keep(op: object, state: ObjectCentricState) -> bool:
+        # Only the real target is pushed onto the surface, only obstructions are cleared, and
+        # PushTarget lists the obstructions in name order.
+        from kinder_gym.operators import GroundOperator
+
+        assert isinstance(op, GroundOperator)
+        if op.parent is clear:
+            return op.objects[1] in obstructions
+        return list(op.objects[3:]) == obstructions
+
+    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        return frozenset({OnTarget.ground([target_obj, surface_obj])})
+
+    robot_obj = env.robot  # type: ignore[attr-defined]
+
+    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        # On-target atoms only for the target, obstruction atoms only for the obstructions.
+        ts = (target_obj, surface_obj)
+        atoms = {(OnTarget if on_target(state, ts) else NotOnTarget).ground(ts)}
+        for o in obstructions:
+            os = (o, surface_obj)
+            atoms.add((Obstructing if obstructing(state, os) else NotObstructing).ground(os))
+        if hand_empty(state, ()):
+            atoms.add(HandEmpty.ground([robot_obj]))
+        return frozenset(atoms)
+
+    return PlanningModel(
+        name="dynobstruction2d",
+        env=env,
+        types=(robot_t, block_t, target_t, surface_t),
+        predicates=(OnTarget, NotOnTarget, Obstructing, NotObstructing, HandEmpty),
+        skills=(
+            Skill(clear, ClearSurfaceController, env),
+            Skill(push, PushTargetController, env),
+        ),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        max_skill_horizon=200,
+        operator_filter=keep,
+    )
