@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -154,9 +155,12 @@ def test_agent_without_replanning_budget_fails_on_divergence() -> None:
         ("kinder/Motion2D-p2-v0", range(2)),
         ("kinder/StickButton2D-b1-v0", range(3)),
         ("kinder/StickButton2D-b3-v0", range(2)),
+        ("kinder/DynObstruction2D-o1-v0", range(1, 3)),
+        ("kinder/DynPushPullHook2D-o0-v0", [6, 9]),
+        ("kinder/BaseMotion3D-v0", range(2)),
     ],
 )
-def test_solves_small_seeded_instances(env_id: str, seeds: range) -> None:
+def test_solves_small_seeded_instances(env_id: str, seeds: Sequence[int]) -> None:
     env = make_object_centric(env_id)
     for seed in seeds:
         x0, _ = env.reset(seed=seed)

@@ -143,7 +143,7 @@ def test_every_bundled_file_loads_at_every_registered_count():
     for info in table:
         task = load_task(info.file, info.count)
         assert task.family == info.family
-    assert len(list(task_files())) == 20
+    assert len(list(task_files())) == 23
 
 
 def test_merge_patch_follows_rfc7386():

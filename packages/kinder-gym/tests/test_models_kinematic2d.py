@@ -130,3 +130,18 @@ def test_registry() -> None:
     with pytest.raises(ValueError, match="No planning model for Nope"):
         create_model(env, family="Nope")
     assert "(:action StickPress" in create_model(env).domain_pddl()
+
+
+def test_2d_parts_import_without_the_3d_package() -> None:
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, kinder_gym, kinder_gym.models, kinder_gym.motion_planning\n"
+        "import kinder_gym.models.kinematic2d.motion2d, kinder_gym.models.kinematic2d.stickbutton2d\n"
+        "import kinder_gym.models.dynamic2d.dyn_obstruction2d\n"
+        "import kinder_gym.models.dynamic2d.dyn_pushpullhook2d\n"
+        "bad = [m for m in ('kinder_garden3d', 'pybullet', 'mujoco') if m in sys.modules]\n"
+        "assert not bad, bad\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -342,17 +342,21 @@ def _scoop(name: str, p: Params) -> ObjectAsset:
 
 
 def _seesaw(name: str, p: Params) -> ObjectAsset:
-    """A seesaw: a pivot block (the body frame is its centre) and a beam on a hinge about y at
-    the pivot's top, with stiffness, damping, friction loss and a range."""
+    """A seesaw: a pivot block on a base plate (the body frame is the pivot block's centre) and
+    a beam on a hinge about y at the pivot's top, with stiffness, damping, friction loss and a
+    range. The plate keeps the pivot from tipping over when the beam is loaded off-centre."""
     bl, bw, bt = (float(v) for v in p["beam_size"])
     pw, ph = float(p["pivot_width"]), float(p["pivot_height"])
+    plx, ply, plt = (float(v) for v in p["base_size"])
     clear = float(p["beam_clearance"])
-    pivot_density = p["pivot_mass"] / (pw * bw * ph)
+    density = p["pivot_mass"] / (pw * bw * ph + plx * ply * plt)
     beam_density = p["beam_mass"] / (bl * bw * bt)
-    geoms = _geom(
-        "box", (pw / 2, bw / 2, ph / 2), (0, 0, 0), p["pivot_rgba"], OBJECT_CLASS,
-        density=pivot_density, friction=p["pivot_friction"], name=f"{name}_pivot",
-    )  # fmt: skip
+    geoms = "\n".join([
+        _geom("box", (pw / 2, bw / 2, ph / 2), (0, 0, 0), p["pivot_rgba"], OBJECT_CLASS,
+              density=density, friction=p["pivot_friction"], name=f"{name}_pivot"),
+        _geom("box", (plx / 2, ply / 2, plt / 2), (0, 0, -ph / 2 - plt / 2), p["pivot_rgba"],
+              OBJECT_CLASS, density=density, friction=p["pivot_friction"], name=f"{name}_base"),
+    ])  # fmt: skip
     lo, hi = (float(v) for v in p["hinge_range"])
     beam_z = ph / 2 + clear + bt / 2
     children = (
@@ -366,9 +370,9 @@ def _seesaw(name: str, p: Params) -> ObjectAsset:
         )
         + "\n</body>"
     )  # fmt: skip
-    bbox = np.array([bl, max(bw, bw), ph + clear + bt])
+    bbox = np.array([max(bl, plx), max(bw, ply), plt + ph + clear + bt])
     frames = {"beam": HingeFrame((0.0, 0.0, ph / 2), (0.0, 1.0, 0.0), (0.0, 0.0, clear + bt / 2))}
-    return ObjectAsset(geoms, bbox, ph / 2, children, f"{name}_hinge", frames)
+    return ObjectAsset(geoms, bbox, ph / 2 + plt, children, f"{name}_hinge", frames)
 
 
 #: Chair models (stand-ins for the three RoboCasa apartment chairs): seat width, depth, seat
@@ -455,6 +459,7 @@ OBJECT_TYPES: dict[str, tuple[Callable[[str, Params], ObjectAsset], Params]] = {
     "seesaw": (
         _seesaw,
         {"beam_size": [0.36, 0.07, 0.01], "beam_clearance": 0.0025, "pivot_height": 0.04,
+         "base_size": [0.24, 0.12, 0.006],
          "pivot_width": 0.035, "beam_mass": 0.1, "pivot_mass": 0.18, "damping": 0.02,
          "hinge_frictionloss": 0.03, "hinge_stiffness": 1.2, "hinge_range": [-0.7, 0.7],
          "beam_friction": [1.8, 0.025, 0.002], "pivot_friction": [1.5, 0.025, 0.002],

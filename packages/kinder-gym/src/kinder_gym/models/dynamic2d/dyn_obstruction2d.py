@@ -34,6 +34,7 @@ from collections.abc import Sequence
 
 import numpy as np
 from gymnasium import spaces
+
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden2d.dynamic2d import object_types as ot
 from kinder_garden2d.dynamic2d.geometry import (
@@ -45,7 +46,6 @@ from kinder_garden2d.dynamic2d.geometry import (
     rect_shape,
     transform,
 )
-
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic2d.kin_robot import (
@@ -191,7 +191,7 @@ class ClearSurfaceController(PushController):
 
     def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
         """Prefer pushing away from the target block (80%)."""
-        _, block, surface = self.objects[:3]
+        surface = self.objects[2]
         targets = state.get_objects(ot.TARGET_BLOCK)
         away_right = bool(targets) and state.get(targets[0], "x") < state.get(surface, "x")
         side = rng.uniform(0.5, 1.0) if away_right else rng.uniform(0.0, 0.5)

@@ -29,6 +29,7 @@ from collections.abc import Sequence
 
 import numpy as np
 from gymnasium import spaces
+
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden2d.dynamic2d import object_types as ot
 from kinder_garden2d.dynamic2d.geometry import (
@@ -41,7 +42,6 @@ from kinder_garden2d.dynamic2d.geometry import (
     rect_shape,
     transform,
 )
-
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic2d.kin_robot import (
@@ -113,8 +113,11 @@ class _HookController(KinRobotController):
         cfg = env.config
         shape = self._robot_shape(state, q)
         x0, x1, y0, y1 = bounds(shape)
-        if x0 <= cfg.world_min_x or x1 >= cfg.world_max_x or y0 <= cfg.world_min_y or (
-            y1 >= cfg.world_max_y
+        if (
+            x0 <= cfg.world_min_x
+            or x1 >= cfg.world_max_x
+            or y0 <= cfg.world_min_y
+            or (y1 >= cfg.world_max_y)
         ):
             return "a wall"
         mid = (cfg.world_min_y + cfg.world_max_y) / 2
@@ -192,8 +195,13 @@ class GraspHookController(_HookController):
             if abs(wrap(cur[2] - prev[2])) > 1e-9 or abs(cur[3] - prev[3]) > 1e-9:
                 for k in range(1, 9):  # check the turn/extension in place
                     t = k / 8
-                    mid = [prev[0], prev[1], prev[2] + wrap(cur[2] - prev[2]) * t,
-                           prev[3] + (cur[3] - prev[3]) * t, cur[4]]
+                    mid = [
+                        prev[0],
+                        prev[1],
+                        prev[2] + wrap(cur[2] - prev[2]) * t,
+                        prev[3] + (cur[3] - prev[3]) * t,
+                        cur[4],
+                    ]
                     hit = self._touches(state, mid, ())
                     if hit is not None:
                         raise SkillFailure(f"GraspHook: turning would touch {hit}")
@@ -289,8 +297,11 @@ class PreHookController(_HookController):
                 hx = x + c * hook_rel[0] - s * hook_rel[1]
                 hy = y + s * hook_rel[0] + c * hook_rel[1]
                 x0, x1, y0, y1 = bounds(place(local, hx, hy, h[2] + rot))
-                if x0 <= 0.02 or x1 >= cfg.world_max_x - 0.02 or y0 <= 0.02 or (
-                    y1 >= cfg.world_max_y - 0.02
+                if (
+                    x0 <= 0.02
+                    or x1 >= cfg.world_max_x - 0.02
+                    or y0 <= 0.02
+                    or (y1 >= cfg.world_max_y - 0.02)
                 ):
                     ok = False
                     break
@@ -344,9 +355,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     HoldingHook = Predicate(
         "HoldingHook", (robot_t, hook_t), lambda s, o: s.get(o[1], "held") > 0.5
     )
-    HookAbove = Predicate(
-        "HookAbove", (hook_t, target_t), lambda s, o: hook_above(s, o[0], o[1])
-    )
+    HookAbove = Predicate("HookAbove", (hook_t, target_t), lambda s, o: hook_above(s, o[0], o[1]))
     TargetAtGoal = Predicate("TargetAtGoal", (target_t,), lambda s, o: env.goal_reached(s))
 
     r = Variable("?robot", robot_t)

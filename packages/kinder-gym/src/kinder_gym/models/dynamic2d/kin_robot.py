@@ -17,8 +17,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from kinder_core import Object, ObjectCentricState
 
+from kinder_core import Object, ObjectCentricState
 from kinder_gym.motion_planning import FloatArray
 from kinder_gym.skills import Controller, SkillFailure
 
@@ -98,9 +98,8 @@ class KinRobotController(Controller):
             if gap_stalled:
                 # A held object stops the closing fingers: the gap target is as reached as it
                 # will get.
-                self._plan[self._k] = KinWaypoint(
-                    *(float(c) for c in q), speed=wp.speed, wait=wp.wait
-                )
+                x, y, th, arm, gap = (float(c) for c in q)
+                self._plan[self._k] = KinWaypoint(x, y, th, arm, gap, wp.speed, wp.wait)
                 self._last = None
                 continue
             if np.max(np.abs(d)) > self.tolerance:

@@ -18,9 +18,9 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.kinematic3d.object_types import POINT_TYPE, ROBOT_TYPE
-
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.motion_planning import FloatArray, config_delta, plan_se2

@@ -1,0 +1,80 @@
+"""DynObstruction2D and DynPushPullHook2D models: predicates and skills on seeded states."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kinder_core import make_object_centric
+from kinder_gym.models import create_model
+from kinder_gym.models.dynamic2d.dyn_obstruction2d import footprint
+from kinder_gym.models.dynamic2d.dyn_pushpullhook2d import hook_above
+from kinder_gym.skills import execute_skill
+
+
+def _run(model, state, name, seed=0):  # type: ignore[no-untyped-def]
+    """Execute a ground skill with sampled params; return its rollout."""
+    op = next(o for o in model.ground_operators(state) if o.name == name)
+    gs = model.skill(op)
+    params = gs.controller.sample_parameters(state, np.random.default_rng(seed))
+    out = execute_skill(
+        gs.controller,
+        state,
+        params,
+        model.env.transition,
+        model.max_skill_horizon,
+        stop_on_goal=False,
+    )
+    return op, out
+
+
+def test_dynobstruction2d_abstraction_on_hand_built_states() -> None:
+    env = make_object_centric("kinder/DynObstruction2D-o1-v0")
+    model = create_model(env)
+    state = env.reset(seed=1)[0]
+    surface, target, obstruction = env.target_surface, env.target_block, env.obstructions[0]
+    # Move the obstruction far from the surface and the target onto it (resting on the table).
+    s_lo, s_hi = footprint(state, surface)
+    state.set(obstruction, "x", s_hi + 0.5 if s_hi + 0.5 < 2.8 else s_lo - 0.5)
+    state.set(target, "x", state.get(surface, "x"))
+    atoms = {str(a) for a in model.abstract(state)}
+    assert atoms == {
+        "(HandEmpty robot)",
+        "(NotObstructing obstruction0 target_surface)",
+        "(OnTarget target_block target_surface)",
+    }
+    assert env.goal_reached(state)
+    state.set(obstruction, "x", state.get(surface, "x"))
+    assert "(Obstructing obstruction0 target_surface)" in {str(a) for a in model.abstract(state)}
+
+
+def test_dynobstruction2d_skills_reach_their_predictions() -> None:
+    env = make_object_centric("kinder/DynObstruction2D-o1-v0")
+    model = create_model(env)
+    state = env.reset(seed=1)[0]
+    atoms = model.abstract(state)
+    op, out = _run(model, state, "ClearSurface(robot, obstruction0, target_surface)")
+    assert out.finished and model.abstract(out.states[-1]) == op.apply(atoms)
+    state = out.states[-1]
+    op, out = _run(model, state, "PushTarget(robot, target_block, target_surface, obstruction0)")
+    assert out.finished and env.goal_reached(out.states[-1])
+
+
+def test_dynpushpullhook2d_skills_chain_to_the_goal() -> None:
+    env = make_object_centric("kinder/DynPushPullHook2D-o0-v0")
+    model = create_model(env)
+    state = env.reset(seed=6)[0]
+    atoms = model.abstract(state)
+    assert {str(a) for a in atoms} == {"(HandEmpty robot)"}
+    op, out = _run(model, state, "GraspHook(robot, hook)")
+    assert model.abstract(out.states[-1]) == op.apply(atoms)
+    state, atoms = out.states[-1], model.abstract(out.states[-1])
+    # PreHook and HookDown: try a few parameter samples, as the planner would.
+    for seed in range(6):
+        op, out = _run(model, state, "PreHook(robot, hook, target_block)", seed=seed)
+        if model.abstract(out.states[-1]) == op.apply(atoms):
+            break
+    else:
+        raise AssertionError("no PreHook sample reached its prediction")
+    assert hook_above(out.states[-1], env.hook, env.target_block)
+    op, out = _run(model, out.states[-1], "HookDown(robot, hook, target_block)")
+    assert env.goal_reached(out.states[-1])
