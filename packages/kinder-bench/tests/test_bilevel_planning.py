@@ -144,7 +144,18 @@ def test_agent_without_replanning_budget_fails_on_divergence() -> None:
     agent.reset(obs, info)
     obs = obs.copy()
     obs[0] += 0.05  # a noisy observation of the robot's x
+    assert np.array_equal(agent.act(obs), np.zeros(2))  # the failed re-plan returns
     with pytest.raises(AgentFailure, match="re-planning budget"):
+        agent.act(obs)
+
+
+def test_planning_failure_is_raised_by_the_next_act() -> None:
+    env = BoxObservation(ToyPlaceEnv())
+    use_model(env.unwrapped, make_toy_model(env.unwrapped))  # type: ignore[arg-type]
+    agent = make_agent(AGENT, env, {"max_abstract_plans": 1, "refinement_rounds": 1}, seed=0)
+    obs, info = env.reset(seed=0)
+    agent.reset(obs, info)  # returns, so its planning time counts
+    with pytest.raises(AgentFailure, match="no plan found"):
         agent.act(obs)
 
 
@@ -158,6 +169,7 @@ def test_agent_without_replanning_budget_fails_on_divergence() -> None:
         ("kinder/DynObstruction2D-o1-v0", range(1, 3)),
         ("kinder/DynPushPullHook2D-o0-v0", [6, 9]),
         ("kinder/BaseMotion3D-v0", range(2)),
+        ("kinder/Transport3D-o1-v0", range(1)),
     ],
 )
 def test_solves_small_seeded_instances(env_id: str, seeds: Sequence[int]) -> None:

@@ -112,7 +112,11 @@ def test_box_view_matches_the_spec_example():
         box = env.get_wrapper_attr("box")
         assert box.shape == (45,)
         names = box.feature_names
-        assert names[0] == "cube1.x" and names[16] == "cupboard_1.x" and names[23] == "robot.pos_base_x"
+        assert (
+            names[0] == "cube1.x"
+            and names[16] == "cupboard_1.x"
+            and names[23] == "robot.pos_base_x"
+        )
         assert names[3:7] == ["cube1.qw", "cube1.qx", "cube1.qy", "cube1.qz"]
         assert env.action_space.shape == (11,)
         assert env.spec is not None and env.spec.max_episode_steps == 1000

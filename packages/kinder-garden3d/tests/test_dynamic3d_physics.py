@@ -184,7 +184,7 @@ def test_box_vector_states_are_deterministic(shelf):
     r2 = shelf.transition(vec, a)[0]
     assert np.array_equal(r1.data, r2.data)
     full = shelf.transition(s, a)[0]  # with the warm start: nearly the same physics
-    assert np.allclose(r1.data, full.data, atol=1e-3)
+    assert np.allclose(r1.data, full.data, atol=5e-3)
 
 
 # -- assets --------------------------------------------------------------------------------------
@@ -201,8 +201,9 @@ def test_drawer_opens_when_pulled_and_stays_shut_otherwise():
         for pull, expect_open in ((0.0, False), (30.0, True)):
             env._load(s)
             d.xfrc_applied[body, :3] = (pull, 0.0, 0.0)  # world +x = the island's front
-            mujoco.mj_step(m, d, 2000)  # 1 s
+            mujoco.mj_step(m, d, round(1.0 / m.opt.timestep))  # 1 s
             d.xfrc_applied[body] = 0.0
+            env._cache = None  # MjData was stepped behind the env's back
             slide = d.qpos[m.jnt_qposadr[m.joint("kitchen_island_drawer_1_1_slide").id]]
             if expect_open:
                 assert slide > 0.3, slide
@@ -287,7 +288,9 @@ class _Script:
         return np.array([s.get(self.robot, f"pos_arm_joint{i}") for i in range(1, 8)])
 
     def base(self, s: ObjectCentricState) -> np.ndarray:
-        return np.array([s.get(self.robot, f) for f in ("pos_base_x", "pos_base_y", "pos_base_rot")])
+        return np.array(
+            [s.get(self.robot, f) for f in ("pos_base_x", "pos_base_y", "pos_base_rot")]
+        )
 
     def pinch(self, s: ObjectCentricState) -> np.ndarray:
         self.env._load(s)

@@ -26,9 +26,15 @@ MINIMAL: dict[str, Any] = {
     "instruction": "Put the {n} cubes on the table.",
     "count": {"default": 2, "min": 1, "max": 5, "start": 1},
     "fixtures": {"table_1": {"type": "table", "pos": [1.0, 0.0, 0.0], "length": 0.6}},
-    "objects": {"cube{i}": {"type": "cube", "size": 0.03, "rgba": {"cycle": [[1, 0, 0, 1], [0, 0, 1, 1]]}}},
+    "objects": {
+        "cube{i}": {"type": "cube", "size": 0.03, "rgba": {"cycle": [[1, 0, 0, 1], [0, 0, 1, 1]]}}
+    },
     "regions": {
-        "floor_region": {"target": "ground", "boxes": [[0.3, -0.3, 0, 0.5, 0.3, 0]], "yaw": [[0, 90]]},
+        "floor_region": {
+            "target": "ground",
+            "boxes": [[0.3, -0.3, 0, 0.5, 0.3, 0]],
+            "yaw": [[0, 90]],
+        },
         "table_region": {"target": "table_1", "boxes": [[-0.25, -0.25, 0, 0.25, 0.25, 0.05]]},
         "robot_region": {"target": "ground", "boxes": [[-0.1, -0.1, 0, 0.1, 0.1, 0]]},
     },
@@ -52,19 +58,59 @@ def broken(**changes: Any) -> dict[str, Any]:
     ("patch", "key", "problem"),
     [
         ({"colour": "red"}, "<root>", "unknown key(s) ['colour']"),
-        ({"objects": {"cube{i}": {"sise": 0.02}}}, "objects.cube1", "unknown parameter(s) ['sise']"),
-        ({"objects": {"cube{i}": {"type": "sphere"}}}, "objects.cube1.type", "unknown type 'sphere'"),
+        (
+            {"objects": {"cube{i}": {"sise": 0.02}}},
+            "objects.cube1",
+            "unknown parameter(s) ['sise']",
+        ),
+        (
+            {"objects": {"cube{i}": {"type": "sphere"}}},
+            "objects.cube1.type",
+            "unknown type 'sphere'",
+        ),
         ({"objects": {"cube{i}": {"size": -0.02}}}, "objects.cube1.size", "must be positive"),
-        ({"objects": {"cube{i}": {"rgba": [1, 0, 0]}}}, "objects.cube1.rgba", "expected a list of 4"),
-        ({"regions": {"table_region": {"target": "desk"}}}, "regions.table_region.target", "unknown target 'desk'"),
-        ({"regions": {"floor_region": {"boxes": [[1, 0, 0, 0, 1, 0]]}}}, "regions.floor_region.boxes[0]", "expected [xmin"),
-        ({"regions": {"floor_region": {"yaw": [[10, 0]]}}}, "regions.floor_region.yaw[0]", "lo <= hi"),
-        ({"cameras": {"task_view": None, "side": {"pos": [0, 0, 1], "lookat": [1, 0, 0]}}}, "cameras", "task_view"),
-        ({"goal": ["and", ["on", "cube{i}", "shelf_region"]]}, "goal[1]", "unknown region 'shelf_region'"),
+        (
+            {"objects": {"cube{i}": {"rgba": [1, 0, 0]}}},
+            "objects.cube1.rgba",
+            "expected a list of 4",
+        ),
+        (
+            {"regions": {"table_region": {"target": "desk"}}},
+            "regions.table_region.target",
+            "unknown target 'desk'",
+        ),
+        (
+            {"regions": {"floor_region": {"boxes": [[1, 0, 0, 0, 1, 0]]}}},
+            "regions.floor_region.boxes[0]",
+            "expected [xmin",
+        ),
+        (
+            {"regions": {"floor_region": {"yaw": [[10, 0]]}}},
+            "regions.floor_region.yaw[0]",
+            "lo <= hi",
+        ),
+        (
+            {"cameras": {"task_view": None, "side": {"pos": [0, 0, 1], "lookat": [1, 0, 0]}}},
+            "cameras",
+            "task_view",
+        ),
+        (
+            {"goal": ["and", ["on", "cube{i}", "shelf_region"]]},
+            "goal[1]",
+            "unknown region 'shelf_region'",
+        ),
         ({"goal": ["near", "cube1", "table_region"]}, "goal", "unknown predicate 'near'"),
         ({"goal": ["balanced", "cube1", 5.0]}, "goal", "is not a seesaw"),
-        ({"initial_state": [["on", "robot", "robot_region"]]}, "objects.cube1", "needs an initial_state"),
-        ({"initial_state": [["under", "cube{i}", "floor_region"]]}, "initial_state[0]", "expected [\"on\"|\"in\""),
+        (
+            {"initial_state": [["on", "robot", "robot_region"]]},
+            "objects.cube1",
+            "needs an initial_state",
+        ),
+        (
+            {"initial_state": [["under", "cube{i}", "floor_region"]]},
+            "initial_state[0]",
+            'expected ["on"|"in"',
+        ),
         ({"max_episode_steps": 0}, "max_episode_steps", "must be positive"),
         ({"count": {"default": "two"}}, "count.default", "expected an integer"),
         ({"scene": "moon_base"}, "scene", "unknown scene 'moon_base'"),
@@ -97,7 +143,9 @@ def test_count_outside_the_range_and_count_without_template(tmp_path):
 
 def test_unknown_fixture_frame_is_reported_when_building(tmp_path):
     path = write(tmp_path, broken(regions={"table_region": {"frame": "shelf:3"}}))
-    with pytest.raises(TaskFileError, match=r"regions.table_region.frame: fixture 'table_1' has no frame 'shelf:3'"):
+    with pytest.raises(
+        TaskFileError, match=r"regions.table_region.frame: fixture 'table_1' has no frame 'shelf:3'"
+    ):
         Dynamic3DEnv(path)
 
 
@@ -108,7 +156,9 @@ def test_templates_expand_per_index():
     assert [p[1] for p in task.initial_state] == ["cube1", "cube2", "cube3"]
     assert task.goal[0] == "and" and len(task.goal[1]) == 3
     assert task.instruction.startswith("Pick up the 3 cube(s)")
-    sort = load_task("SortClutteredBlocks3D/SortClutteredBlocks3D-sort_the_cluttered_blocks_into_bins.json", 8)
+    sort = load_task(
+        "SortClutteredBlocks3D/SortClutteredBlocks3D-sort_the_cluttered_blocks_into_bins.json", 8
+    )
     goal_regions = [g[2] for g in sort.goal[1]]
     assert goal_regions[:5] == [
         "bin_red_goal_region", "bin_green_goal_region", "bin_blue_goal_region",
@@ -124,8 +174,12 @@ def test_variant_patches_apply_by_count():
     assert len(wide.fixtures) == 11
     assert [g[2] for g in wide.goal[1]] == [f"cupboard_{i}_goal_region" for i in range(5)]
     assert wide.regions["cupboard_3_goal_region"].frame == "shelf:0"
-    o20 = load_task("SortClutteredBlocks3D/SortClutteredBlocks3D-sort_the_cluttered_blocks_into_bins.json", 20)
-    o4 = load_task("SortClutteredBlocks3D/SortClutteredBlocks3D-sort_the_cluttered_blocks_into_bins.json", 4)
+    o20 = load_task(
+        "SortClutteredBlocks3D/SortClutteredBlocks3D-sort_the_cluttered_blocks_into_bins.json", 20
+    )
+    o4 = load_task(
+        "SortClutteredBlocks3D/SortClutteredBlocks3D-sort_the_cluttered_blocks_into_bins.json", 4
+    )
     assert o20.regions["bin_red_goal_region"].boxes[0][3] == 0.04
     assert o4.regions["bin_red_goal_region"].boxes[0][3] == 0.02
 

@@ -138,7 +138,8 @@ def test_2d_parts_import_without_the_3d_package() -> None:
 
     code = (
         "import sys, kinder_gym, kinder_gym.models, kinder_gym.motion_planning\n"
-        "import kinder_gym.models.kinematic2d.motion2d, kinder_gym.models.kinematic2d.stickbutton2d\n"
+        "import kinder_gym.models.kinematic2d.motion2d\n"
+        "import kinder_gym.models.kinematic2d.stickbutton2d\n"
         "import kinder_gym.models.dynamic2d.dyn_obstruction2d\n"
         "import kinder_gym.models.dynamic2d.dyn_pushpullhook2d\n"
         "bad = [m for m in ('kinder_garden3d', 'pybullet', 'mujoco') if m in sys.modules]\n"

@@ -9,7 +9,7 @@ pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
 from kinder_gym.models import create_model
-from kinder_gym.skills import execute_skill
+from kinder_gym.skills import SkillFailure, execute_skill
 
 
 def test_basemotion3d_predicates_and_skill() -> None:
@@ -28,3 +28,36 @@ def test_basemotion3d_predicates_and_skill() -> None:
     assert model.abstract(out.states[-1]) == op.apply(model.abstract(state))
     high = env.action_space.high
     assert all(np.all(np.abs(a) <= high + 1e-9) for a in out.actions)
+
+
+def test_transport3d_pick_and_place_reach_their_predictions() -> None:
+    env = make_object_centric("kinder/Transport3D-o1-v0")
+    model = create_model(env)
+    state = env.reset(seed=0)[0]
+    assert {str(a) for a in model.abstract(state)} == {
+        "(HandEmpty robot)",
+        "(OnFloor box0)",
+        "(OnFloor cube0)",
+    }
+    assert {str(a) for a in model.goal(state)} == {
+        "(HandEmpty robot)",
+        "(OnTable box0 table)",
+        "(OnTable cube0 table)",
+    }
+    rng = np.random.default_rng(0)
+    ops = {o.name: o for o in model.ground_operators(state)}
+    for name in ("Pick(robot, cube0)", "Place(robot, cube0, table)"):
+        atoms = model.abstract(state)
+        for _ in range(5):  # sample parameters as the planner would
+            gs = model.skill(ops[name])
+            params = gs.controller.sample_parameters(state, rng)
+            try:
+                out = execute_skill(gs.controller, state, params, env.transition, 300)
+            except SkillFailure:
+                continue
+            if model.abstract(out.states[-1]) == ops[name].apply(atoms):
+                state = out.states[-1]
+                break
+        else:
+            raise AssertionError(f"{name} never reached its prediction")
+    assert "(OnTable cube0 table)" in {str(a) for a in model.abstract(state)}

@@ -21,10 +21,13 @@ Planning from a state ``x0``:
    with fresh samples, up to ``refinement_rounds`` rounds in all (upstream: one round).
 
 The refined plan is a list of actions, executed from the agent's :meth:`act`. Execution is
-monitored: the agent remembers the state each action was planned from and, when the observed state
-differs (``divergence_atol``), plans again from the observed state (``max_replans`` times per
-episode); it also plans again if the actions run out before the episode ends. The upstream agent
-is open-loop (no monitoring).
+monitored: the agent remembers the state each action was planned from and, when the observed
+state differs (``divergence_atol``), plans again from the observed state (``max_replans`` times
+per episode); it also plans again if the actions run out before the episode ends. The upstream
+agent is open-loop (no monitoring). When planning fails, :meth:`act` raises
+:class:`~kinder_bench.agents.base.AgentFailure` on its next call (after one zero action when a
+re-planning call failed), so that the runner, which times the calls that return, records the
+time spent on the failed planning.
 
 Everything random comes from the agent's seeded RNG, so an episode's plan is reproducible.
 """
@@ -60,7 +63,11 @@ FloatArray = NDArray[np.float64]
 
 @dataclasses.dataclass(frozen=True)
 class BilevelPlanningArgs:
-    """Arguments of the bilevel planning baseline (defaults: the paper's configuration)."""
+    """Arguments of the bilevel planning baseline.
+
+    Defaults: the paper's configuration (A*, 10 abstract plans, 3 samples per step, 60 s), plus
+    execution monitoring and 3 refinement rounds (upstream: none and 1).
+    """
 
     search: str = "astar"
     """Abstract search: ``astar`` (priority g + hFF; upstream code) or ``gbfs`` (priority hFF)."""
@@ -325,6 +332,7 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
         self.planning_model = model_for(self.model)
         self.planner = BilevelPlanner(self.planning_model, args)
         self._plan: RefinedPlan | None = None
+        self._failure: str | None = None
         self._t = 0
         self.replans = 0
         self.history: list[PlanningStats] = []
@@ -332,41 +340,50 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
     def reset(self, obs: Any, info: dict[str, Any]) -> None:
         self.replans = 0
         self.history = []
+        self._plan = None
+        self._failure = None
         self._replan(self.observed_state(obs), first=True)
 
-    def _replan(self, state: ObjectCentricState, first: bool = False) -> None:
+    def _replan(self, state: ObjectCentricState, first: bool = False) -> bool:
+        """Plan from ``state``; on failure remember why and return False."""
         if not first:
             if self.replans >= self.args.max_replans:
-                raise AgentFailure(
+                self._failure = (
                     f"{self.name}: plan diverged or ran out and the re-planning budget "
                     f"({self.args.max_replans}) is spent"
                 )
+                return False
             self.replans += 1
         plan = self.planner.plan(state, self.rng)
         self.history.append(self.planner.stats)
-        if plan is None:
+        if plan is None or not plan.actions:
             s = self.planner.stats
-            raise AgentFailure(
+            self._failure = (
                 f"{self.name}: no plan found ({s.abstract_plans} abstract plan(s), "
                 f"{s.skill_samples} skill samples, {s.time:.1f} s"
                 f"{', timed out' if s.timed_out else ''})"
             )
+            return False
         self._plan = plan
         self._t = 0
+        return True
 
     def act(self, obs: Any) -> FloatArray:
+        # A planning failure is raised on the next call, not by the call that planned: the
+        # runner counts the time of calls that return, so the failed planning time is recorded.
+        if self._failure is not None:
+            raise AgentFailure(self._failure)
         if self._plan is None:
             raise AgentFailure(f"{self.name}: act() before reset()")
         state = self.observed_state(obs)
         plan = self._plan
-        if self._t >= len(plan.actions) or (
+        stale = self._t >= len(plan.actions) or (
             self.args.replan_on_divergence
             and not _close(state, plan.states[self._t], self.args.divergence_atol)
-        ):
-            self._replan(state)
+        )
+        if stale and not self._replan(state):
+            return np.zeros(self.action_space.shape, dtype=np.float64)
         plan = self._plan
-        if not plan.actions:
-            raise AgentFailure(f"{self.name}: the plan from this state is empty")
         action = plan.actions[self._t]
         self._t += 1
         return self.clip(action)

@@ -55,7 +55,7 @@ DRAWER_FACE = (0.918, 0.894, 0.835, 1.0)
 BLACK = (0.05, 0.05, 0.05, 1.0)
 
 
-def _f(values: Sequence[float]) -> str:
+def _f(values: Sequence[float] | Array) -> str:
     return " ".join(f"{float(v):.6g}" for v in values)
 
 
@@ -150,12 +150,16 @@ def _bbox(parts: list[_Box]) -> tuple[Array, Array]:
     return lo, hi
 
 
+def _vec3(v: Array) -> tuple[float, float, float]:
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
 def _centred(parts: list[_Box]) -> tuple[list[_Box], Array]:
     """Shift parts so the bounding-box centre is the origin; return them and the bbox size."""
     lo, hi = _bbox(parts)
     mid = (lo + hi) / 2.0
     out = [
-        _Box(tuple(np.array(p.centre) - mid), p.size, p.rgba, p.kind, p.euler, p.collide)  # type: ignore[arg-type]
+        _Box(_vec3(np.array(p.centre) - mid), p.size, p.rgba, p.kind, p.euler, p.collide)
         for p in parts
     ]
     return out, hi - lo
@@ -182,7 +186,7 @@ class ObjectAsset:
     hinge: str | None = None
     frames: dict[str, HingeFrame] = field(default_factory=dict)
 
-    def body(self, name: str, pos: Sequence[float], quat: Sequence[float]) -> str:
+    def body(self, name: str, pos: Sequence[float], quat: Sequence[float] | Array) -> str:
         return (
             f'<body name="{name}" pos="{_f(pos)}" quat="{_f(quat)}">\n'
             f'<freejoint name="{name}_joint"/>\n{self.geoms}\n{self.children}\n</body>'
@@ -418,7 +422,10 @@ _RED = [0.5, 0.1, 0.1, 1.0]
 #: Object type → (generator, parameter defaults). ``None`` defaults mean "derived".
 OBJECT_TYPES: dict[str, tuple[Callable[[str, Params], ObjectAsset], Params]] = {
     "cube": (_cube, {"size": 0.02, "mass": None, "rgba": _RED, "friction": _FRICTION}),
-    "cuboid": (_cuboid, {"size": [0.02, 0.02, 0.02], "mass": None, "rgba": _RED, "friction": _FRICTION}),
+    "cuboid": (
+        _cuboid,
+        {"size": [0.02, 0.02, 0.02], "mass": None, "rgba": _RED, "friction": _FRICTION},
+    ),
     "bin": (
         _bin,
         {"size": [0.3, 0.3, 0.1], "wall": 0.01, "mass": 0.5, "rgba": [0.8, 0.8, 0.0, 1.0],
@@ -501,7 +508,7 @@ class FixtureAsset:
     drawer_of: dict[str, str] = field(default_factory=dict)
     default_frame: str = "top"
 
-    def body(self, name: str, pos: Sequence[float], quat: Sequence[float]) -> str:
+    def body(self, name: str, pos: Sequence[float], quat: Sequence[float] | Array) -> str:
         return (
             f'<body name="{name}" mocap="true" pos="{_f(pos)}" quat="{_f(quat)}">\n'
             f"{self.geoms}\n{self.children}\n</body>"
@@ -625,16 +632,18 @@ def _drawer(
     mass = float(p["drawer_mass"])
     vol = w * dd * floor + 2 * dd * h * wall + w * h * wall + w * (h + 2 * gap) * 0.02
     dens = mass / vol
-    g = [
-        _geom("box", (w / 2, dd / 2, floor / 2), (0, yc, gap + floor / 2), fr, cls, density=dens),
-        _geom("box", (wall / 2, dd / 2, h / 2), (-w / 2 + wall / 2, yc, gap + h / 2), wr, cls, density=dens),
-        _geom("box", (wall / 2, dd / 2, h / 2), (w / 2 - wall / 2, yc, gap + h / 2), wr, cls, density=dens),
-        _geom("box", (w / 2, wall / 2, h / 2), (0, yc - dd / 2 + wall / 2, gap + h / 2), wr, cls, density=dens),
-        _geom("box", (w / 2, 0.01, (h + gap) / 2), (0, depth / 2, gap + h / 2), face, cls, density=dens),
-        _geom("box", (0.06, 0.0075, 0.0075), (0, depth / 2 + 0.045, gap + h / 2), handle, cls, density=dens),
-        _geom("box", (0.0075, 0.0175, 0.0075), (-0.0525, depth / 2 + 0.0275, gap + h / 2), handle, cls, density=dens),
-        _geom("box", (0.0075, 0.0175, 0.0075), (0.0525, depth / 2 + 0.0275, gap + h / 2), handle, cls, density=dens),
-    ]  # fmt: skip
+    z_mid = gap + h / 2
+    boxes = [  # (half extents, centre, colour)
+        ((w / 2, dd / 2, floor / 2), (0, yc, gap + floor / 2), fr),
+        ((wall / 2, dd / 2, h / 2), (-w / 2 + wall / 2, yc, z_mid), wr),
+        ((wall / 2, dd / 2, h / 2), (w / 2 - wall / 2, yc, z_mid), wr),
+        ((w / 2, wall / 2, h / 2), (0, yc - dd / 2 + wall / 2, z_mid), wr),
+        ((w / 2, 0.01, (h + gap) / 2), (0, depth / 2, z_mid), face),
+        ((0.06, 0.0075, 0.0075), (0, depth / 2 + 0.045, z_mid), handle),
+        ((0.0075, 0.0175, 0.0075), (-0.0525, depth / 2 + 0.0275, z_mid), handle),
+        ((0.0075, 0.0175, 0.0075), (0.0525, depth / 2 + 0.0275, z_mid), handle),
+    ]
+    g = [_geom("box", half, c, rgba, cls, density=dens) for half, c, rgba in boxes]
     travel = float(p["drawer_travel"]) * depth
     xml = (
         f'<body name="{name}" pos="__POS__">\n'

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,7 +35,7 @@ from kinder_garden3d.robot.description import GRIPPER_STROKE, RETRACT, robot_des
 os.environ.setdefault("MUJOCO_GL", "egl")
 if os.environ["MUJOCO_GL"] in ("egl", "osmesa"):
     os.environ.setdefault("PYOPENGL_PLATFORM", os.environ["MUJOCO_GL"])
-import mujoco  # noqa: E402
+import mujoco
 
 _SIM_STATE_SPEC = int(
     mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -51,8 +52,9 @@ class Dynamic3DConfig:
     """Physical and sampling constants shared by every Dynamic3D task.
 
     Attributes:
-        timestep: MuJoCo physics step (s).
-        substeps: Physics steps per action (200 × 0.5 ms = 0.1 s, i.e. 10 Hz control).
+        timestep: MuJoCo physics step (s). Upstream uses 0.5 ms; 1 ms halves the cost at the
+            same simulated time per action (``timestep=0.0005, substeps=200`` restores it).
+        substeps: Physics steps per action (100 × 1 ms = 0.1 s, i.e. 10 Hz control).
         settle_actions: All-zero actions applied at reset before the first observation.
         max_base_delta: Bound of the base deltas (m for x, y; rad for yaw).
         max_arm_delta: Bound of the arm joint deltas (rad).
@@ -65,8 +67,8 @@ class Dynamic3DConfig:
             not place it (any yaw).
     """
 
-    timestep: float = 0.0005
-    substeps: int = 200
+    timestep: float = 0.001
+    substeps: int = 100
     settle_actions: int = 10
     max_base_delta: float = 0.1
     max_arm_delta: float = 0.1
@@ -110,8 +112,9 @@ class Dynamic3DEnv(ObjectCentricEnv):
     this one class; tasks differ only in their task files (`tasks/<Family>/*.json`: fixtures,
     objects, regions, cameras, initial-state and goal predicates). The robot has a holonomic
     base (position servo), a 7-DoF Kinova Gen3 arm (joint PD torque control with gravity
-    compensation) and a two-finger Robotiq 2F-85-style gripper. Physics: MuJoCo, 0.5 ms steps,
-    200 steps per action (10 Hz). Every fixture and object is built from primitive shapes.
+    compensation) and a two-finger Robotiq 2F-85-style gripper. Physics: MuJoCo, 1 ms steps,
+    100 steps per action (0.1 s of simulated time, 10 Hz control). Every fixture and object is
+    built from primitive shapes.
 
     ## Observation Space
     All objects sorted by name, each with its type's features. Movable objects (16):
@@ -155,9 +158,13 @@ class Dynamic3DEnv(ObjectCentricEnv):
     ## Arguments
     `task`: a bundled task (`"Shelf3D/Shelf3D.json"`, or a family name with a single file) or a
     path to any task file. `num_objects`: the task's count (tasks with a `count` section).
-    `config`: a `Dynamic3DConfig`. `render_mode`: `"rgb_array"` or None.
+    `config`: a `Dynamic3DConfig` (or a dict of its fields). `render_mode`: `"rgb_array"` or
+    None.
 
     ## Deviations
+    * Physics steps are 1 ms (100 per action) instead of 0.5 ms (200 per action): the same 0.1 s
+      per action at half the cost; `Dynamic3DConfig(timestep=0.0005, substeps=200)` restores
+      upstream's integration step.
     * Assets are primitive stand-ins (no RoboCasa/MimicLabs meshes, no lab backdrop); the robot
       is the project's primitive-shape TidyBot++ model. Sizes follow environments.md §5.
     * The arm PD runs inside MuJoCo (position actuators with kv) and gravity compensation is
@@ -181,11 +188,18 @@ class Dynamic3DEnv(ObjectCentricEnv):
         self,
         task: str,
         num_objects: int | None = None,
-        config: Dynamic3DConfig | None = None,
+        config: Dynamic3DConfig | Mapping[str, Any] | None = None,
         render_mode: str | None = "rgb_array",
     ) -> None:
         super().__init__(render_mode=render_mode)
-        self.config = config if config is not None else Dynamic3DConfig()
+        if config is None:
+            config = Dynamic3DConfig()
+        elif isinstance(config, Mapping):  # e.g. from gymnasium.make(..., config={...})
+            try:
+                config = Dynamic3DConfig(**config)
+            except TypeError as e:
+                raise ValueError(f"Dynamic3DEnv: bad config {dict(config)}: {e}") from None
+        self.config = config
         self.task: TaskSpec = load_task(task, num_objects)
         cfg = self.config
         self.scene: Scene = build_scene(self.task, (cfg.image_width, cfg.image_height))
@@ -264,7 +278,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
         self._q_fingers = np.array([jq(left), jq(right)])
         self._v_fingers = np.array([jv(left), jv(right)])
 
-        for name, spec in self.task.fixtures.items():
+        for name in self.task.fixtures:
             obj = self.objects[name]
             mid = int(m.body_mocapid[m.body(name).id])
             for k, f in enumerate(("x", "y", "z")):
@@ -275,7 +289,6 @@ class Dynamic3DEnv(ObjectCentricEnv):
                 lo, hi = self.scene.fixtures[name].aabb
                 for k, f in enumerate(("bb_x", "bb_y", "bb_z")):
                     const[lay.index(obj, f)] = hi[k] - lo[k]
-            del spec
         for drawer, (_, joint) in self.scene.drawers.items():
             obj = self.objects[drawer]
             add(obj, "pos", jq(joint))
@@ -376,7 +389,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
 
     def _features(self) -> FloatArray:
         """The feature vector of the simulator's current state."""
-        data = self._const.copy()
+        data: FloatArray = self._const.copy()
         data[self._dst] = self._sim_vector()[self._src] * self._scale
         if len(self._ang_dst):
             q = self.data.qpos[self._free_quat]
@@ -412,6 +425,8 @@ class Dynamic3DEnv(ObjectCentricEnv):
             cached_data, cached_sim = self._cache
             if np.array_equal(state.data, cached_data) and np.array_equal(sim, cached_sim):
                 return
+        self.data.xfrc_applied[:] = 0.0  # the env never applies external forces
+        self.data.qfrc_applied[:] = 0.0
         if sim is not None and sim.shape == (self._sim_size,):
             mujoco.mj_setState(self.model, self.data, sim, _SIM_STATE_SPEC)
             if np.array_equal(self._features(), state.data):
@@ -478,6 +493,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
 
     def _place_all(self, rng: np.random.Generator) -> None:
         m, d = self.model, self.data
+        self._cache = None  # MjData no longer holds any state handed out
         mujoco.mj_resetData(m, d)
         d.qpos[self._q_arm] = RETRACT
         d.qpos[self._q_base] = (-80.0, -80.0, 0.0)  # parked until the robot is placed
@@ -643,7 +659,8 @@ class Dynamic3DEnv(ObjectCentricEnv):
         bounds.update({f: (-1.0, 1.0) for f in ("qw", "qx", "qy", "qz")})
         bounds.update({f: (0.0, 10.0) for f in ("bb_x", "bb_y", "bb_z")})
         vel = ["vx", "vy", "vz", "wx", "wy", "wz", "vel", "hinge_vel", "vel_gripper",
-               "vel_base_x", "vel_base_y", "vel_base_rot", *(f"vel_arm_joint{i}" for i in range(1, 8))]  # fmt: skip
+               "vel_base_x", "vel_base_y", "vel_base_rot"]  # fmt: skip
+        vel += [f"vel_arm_joint{i}" for i in range(1, 8)]
         bounds.update({f: (-big, big) for f in vel})
         bounds.update({f"pos_arm_joint{i}": (-big, big) for i in range(1, 8)})
         bounds.update({"pos_base_rot": (-big, big), "pos_gripper": (-0.5, 1.5)})

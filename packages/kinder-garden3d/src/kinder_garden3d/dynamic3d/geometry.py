@@ -84,7 +84,8 @@ def rot_axis(axis: Array | tuple[float, float, float], angle: float) -> Array:
     a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
     k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
+    out: Array = np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
+    return out
 
 
 def look_at_xyaxes(pos: Array | list[float], lookat: Array | list[float]) -> Array:

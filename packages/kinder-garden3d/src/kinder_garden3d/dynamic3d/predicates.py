@@ -86,7 +86,7 @@ class Regions:
         inside = (local[:, None, :] >= boxes[None, :, :3]) & (
             local[:, None, :] <= boxes[None, :, 3:]
         )
-        result: NDArray[np.bool_] = inside.all(axis=2).any(axis=1)
+        result: NDArray[np.bool_] = np.any(np.all(inside, axis=2), axis=1)
         return result
 
 
@@ -168,8 +168,8 @@ class GoalEvaluator:
                 for child in node[1]:
                     walk(child)
             elif node[0] == "balanced":
-                single = ("balanced", self._layout.index(self._layout.object_named(node[1]),
-                                                         "hinge_pos"), np.radians(node[2]))  # fmt: skip
+                idx = self._layout.index(self._layout.object_named(node[1]), "hinge_pos")
+                single = ("balanced", idx, np.radians(node[2]))
                 out[f"balanced({node[1]}, {node[2]:g})"] = self._eval(single, state)
             else:
                 g = _Group(node[2], np.array([self._point_idx(node[1])]))

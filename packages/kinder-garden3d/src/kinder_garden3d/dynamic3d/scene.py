@@ -22,11 +22,11 @@ import numpy as np
 from kinder_garden3d.dynamic3d.assets import (
     DEFAULT_CLASSES,
     FIXTURE_CLASS,
+    FixtureAsset,
     HingeFrame,
+    ObjectAsset,
     build_fixture,
     build_object,
-    FixtureAsset,
-    ObjectAsset,
 )
 from kinder_garden3d.dynamic3d.geometry import (
     Array,
@@ -238,7 +238,7 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int]) -> Scene:
     width, height = image_size
     xml = f"""<mujoco model="kinder_{task.family}">
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="0.0005" integrator="implicitfast"/>
+  <option timestep="0.001" integrator="implicitfast"/>
   <statistic extent="3" center="1 0 0.5"/>
   <visual>
     <global offwidth="{max(width, 640)}" offheight="{max(height, 480)}"/>

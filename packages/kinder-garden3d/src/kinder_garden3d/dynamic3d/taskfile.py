@@ -193,7 +193,8 @@ def variant_table() -> list[VariantInfo]:
         family = raw.get("family")
         if family != path.parent.name:
             raise TaskFileError(
-                f"{display}: family: must equal the folder name {path.parent.name!r}, got {family!r}"
+                f"{display}: family: must equal the folder name {path.parent.name!r}, "
+                f"got {family!r}"
             )
         steps = int(raw.get("max_episode_steps", 1000))
         variants = raw.get("variants")
@@ -409,7 +410,7 @@ def load_task(task: str, num_objects: int | None = None) -> TaskSpec:
             raise v.error(where, f"{ent!r} is placed twice")
         placed.add(ent)
         initial.append((str(pred[0]), str(ent), str(reg)))
-    for name, ent in objects.items():
+    for name in objects:
         if name not in placed:
             raise v.error(f"objects.{name}", "every object needs an initial_state predicate")
     for name, ent in fixtures.items():
@@ -519,7 +520,7 @@ class _Validator:
             if out <= 0:
                 raise self.error(where, f"must be positive, got {out}")
             return out
-        if isinstance(default, float) or default is None and not isinstance(value, list):
+        if isinstance(default, float) or (default is None and not isinstance(value, list)):
             out_f = self.number(value, where)
             if key not in ("leg_height",) and out_f <= 0 and "range" not in key:
                 raise self.error(where, f"must be positive, got {out_f}")
@@ -529,8 +530,11 @@ class _Validator:
         if key == "working_drawers":
             pairs = self.array(value, where)
             for j, pair in enumerate(pairs):
-                if not (isinstance(pair, list) and len(pair) == 2
-                        and all(isinstance(v, int) and not isinstance(v, bool) for v in pair)):
+                if not (
+                    isinstance(pair, list)
+                    and len(pair) == 2
+                    and all(isinstance(v, int) and not isinstance(v, bool) for v in pair)
+                ):
                     raise self.error(f"{where}[{j}]", f"expected [level, cell], got {pair!r}")
             return value
         if key in ("shelf_partitions", "shelf_drawers"):

@@ -29,6 +29,7 @@ places them; it reports 8% success on o1.
 
 from __future__ import annotations
 
+import abc
 import math
 from collections.abc import Sequence
 
@@ -60,7 +61,7 @@ from kinder_gym.models.dynamic2d.kin_robot import (
     wrap,
 )
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.operators import LiftedOperator
+from kinder_gym.operators import GroundOperator, LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 #: Fingertip height above the table top while pushing (metres).
@@ -106,10 +107,9 @@ class PushController(KinRobotController):
     (:meth:`goal_x`).
     """
 
+    @abc.abstractmethod
     def goal_x(self, state: ObjectCentricState) -> float:
         """Where the block's centre should end (metres)."""
-        del state
-        raise SkillFailure(f"{type(self).__name__} has no goal")
 
     def waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
         env = self.context
@@ -285,12 +285,9 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     target_obj = env.target_block  # type: ignore[attr-defined]
     surface_obj = env.target_surface  # type: ignore[attr-defined]
 
-    def keep(op: object, state: ObjectCentricState) -> bool:
+    def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
         # Only the real target is pushed onto the surface, only obstructions are cleared, and
         # PushTarget lists the obstructions in name order.
-        from kinder_gym.operators import GroundOperator
-
-        assert isinstance(op, GroundOperator)
         if op.parent is clear:
             return op.objects[1] in obstructions
         return list(op.objects[3:]) == obstructions

@@ -35,6 +35,7 @@ presses are monotone.
 
 from __future__ import annotations
 
+import abc
 import math
 from collections.abc import Sequence
 
@@ -166,10 +167,9 @@ class _RejectionSampled(CRVController):
 
     tries = 50
 
+    @abc.abstractmethod
     def goal_config(self, state: ObjectCentricState, params: FloatArray) -> FloatArray | None:
         """The goal ``[x, y, theta, arm]`` for ``params`` (None when it is out of limits)."""
-        del state, params
-        return None
 
     def checker(self, state: ObjectCentricState) -> CRVCollisionChecker:
         """The collision checker of this skill's motions."""

@@ -21,11 +21,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.kinematic3d.geometry import compose, invert, normalize_quat
 from kinder_garden3d.robot.description import RETRACT, robot_description
 from kinder_garden3d.robot.ik import InverseKinematics
-
 from kinder_gym.motion_planning import FloatArray, plan_joint_space, plan_se2
 from kinder_gym.skills import Controller, SkillFailure
 
@@ -43,10 +43,13 @@ def wrap(theta: float) -> float:
 
 
 def config_delta(a: FloatArray, b: FloatArray) -> FloatArray:
-    """``b − a`` over the 10-D configuration, wrapped dimensions the short way round."""
+    """``b − a`` over the 10-D configuration (or the 7 arm joints), wrapped dimensions the
+    short way round."""
     d = np.asarray(b, dtype=np.float64) - np.asarray(a, dtype=np.float64)
+    offset = 0 if len(d) == 10 else 3
     for i in WRAP_DIMS:
-        d[i] = wrap(float(d[i]))
+        if 0 <= i - offset < len(d):
+            d[i - offset] = wrap(float(d[i - offset]))
     return d
 
 
@@ -145,12 +148,13 @@ class ConfigChecker:
             moving |= {self.held.name, *(o.name for o in self.carried)}
         self.moving = moving
         self._base_pose = {
-            o: (state[o][:3].copy(), state[o][3:7].copy()) for o in [self.held, *self.carried]
+            o: (state[o][:3].copy(), state[o][3:7].copy())
+            for o in [self.held, *self.carried]
             if o is not None
         }
         self.checks = 0
 
-    def state_at(self, config: Sequence[float]) -> ObjectCentricState:
+    def state_at(self, config: Sequence[float] | FloatArray) -> ObjectCentricState:
         """The state with the robot at ``config`` (held objects carried along)."""
         s = self.state.copy()
         s[self.robot][:10] = np.asarray(config, dtype=np.float64)
@@ -168,10 +172,8 @@ class ConfigChecker:
     def __call__(self, config: Sequence[float] | FloatArray) -> bool:
         self.checks += 1
         pairs = self.env.penetrations(self.state_at(config))  # type: ignore[attr-defined]
-        for a, b in pairs:
-            if (a in self.moving) != (b in self.moving):
-                return False
-        return True
+        # Only contacts between something that moves and something that does not count.
+        return all((a in self.moving) == (b in self.moving) for a, b in pairs)
 
 
 def arm_path(
@@ -195,7 +197,14 @@ def arm_path(
     lo = np.minimum(JOINT_LOW, np.minimum(start[3:], goal) - 0.5)
     hi = np.maximum(JOINT_HIGH, np.maximum(start[3:], goal) + 0.5)
     path = plan_joint_space(
-        start[3:], goal, valid, lo, hi, max_step=0.1, seed=seed, timeout=timeout,
+        start[3:],
+        goal,
+        valid,
+        lo,
+        hi,
+        max_step=0.1,
+        seed=seed,
+        timeout=timeout,
         max_iterations=3000,
     )
     if path is None:
@@ -219,8 +228,14 @@ def base_path(
 
     x0, x1, y0, y1 = bounds
     path = plan_se2(
-        start[:3], goal_base, valid, ((x0, x1), (y0, y1)), max_step=(0.05, 0.05, 0.1),
-        seed=seed, timeout=timeout, max_iterations=3000,
+        start[:3],
+        goal_base,
+        valid,
+        ((x0, x1), (y0, y1)),
+        max_step=(0.05, 0.05, 0.1),
+        seed=seed,
+        timeout=timeout,
+        max_iterations=3000,
     )
     if path is None:
         raise SkillFailure("no collision-free base path")
@@ -238,8 +253,11 @@ def solve_ik(
     if _IK is None:
         _IK = InverseKinematics(free_base=False)
     result = _IK.solve(
-        position, quat, base_pose=(float(base[0]), float(base[1]), float(base[2])),
-        initial_arm_joints=init, restarts=2,
+        position,
+        quat,
+        base_pose=(float(base[0]), float(base[1]), float(base[2])),
+        initial_arm_joints=init,
+        restarts=2,
     )
     if not result.success:
         raise SkillFailure(f"no IK solution for the end effector at {np.round(position, 3)}")
