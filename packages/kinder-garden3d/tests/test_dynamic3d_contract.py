@@ -1,7 +1,6 @@
 """Every Dynamic3D id is registered and passes the kinder-core test kit; importing stays light.
 
-The default run checks one id per family (the full kit on the cheap ones; the kit minus the
-two costliest checks on the heavy ones); ``-m slow`` runs the full kit on every id.
+The default run checks one id per family; ``-m slow`` runs every check on every id.
 """
 
 from __future__ import annotations
@@ -56,25 +55,19 @@ EXPECTED_IDS = [
     *(f"kinder/Dynamo3D-o{n}-v0" for n in (1, 3, 12)),
 ]
 
-#: One id per family for the default run, and the checks skipped there for the costly ones
-#: (every check still runs on every id under ``-m slow``).
-DEFAULT_IDS = {
-    "kinder/Shelf3D-o1-v0": (),
-    "kinder/ConstrainedCupboard3D-o1-v0": (),
-    "kinder/Rearrange3D-o1-put_the_boxed_drink_behind_the_bowl-v0": ("gymnasium_checker",),
-    "kinder/SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins-v0": (
-        "gymnasium_checker",
-        "twin_determinism",
-    ),
-    "kinder/SweepSimple3D-o1-sweep_the_blocks_to_the_left_side_of_the_kitchen_island-v0": (
-        "gymnasium_checker",
-    ),
-    "kinder/SweepIntoDrawer3D-o5-v0": ("gymnasium_checker", "twin_determinism"),
-    "kinder/ScoopPour3D-o10-v0": ("gymnasium_checker", "twin_determinism"),
-    "kinder/BalanceBeam3D-o3-v0": (),
-    "kinder/Tossing3D-o1-v0": (),
-    "kinder/Dynamo3D-o1-v0": (),
-}
+#: One id per family for the default run (every id under ``-m slow``).
+DEFAULT_IDS = [
+    "kinder/Shelf3D-o1-v0",
+    "kinder/ConstrainedCupboard3D-o1-v0",
+    "kinder/Rearrange3D-o1-put_the_boxed_drink_behind_the_bowl-v0",
+    "kinder/SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins-v0",
+    "kinder/SweepSimple3D-o1-sweep_the_blocks_to_the_left_side_of_the_kitchen_island-v0",
+    "kinder/SweepIntoDrawer3D-o5-v0",
+    "kinder/ScoopPour3D-o10-v0",
+    "kinder/BalanceBeam3D-o3-v0",
+    "kinder/Tossing3D-o1-v0",
+    "kinder/Dynamo3D-o1-v0",
+]
 
 
 def test_all_ids_are_registered():
@@ -83,9 +76,9 @@ def test_all_ids_are_registered():
     assert families == set(kinder_core.families("Dynamic3D"))
 
 
-@pytest.mark.parametrize("env_id", list(DEFAULT_IDS))
+@pytest.mark.parametrize("env_id", DEFAULT_IDS)
 def test_kinder_test_kit_one_id_per_family(env_id):
-    check_kinder_env(env_id, skip=DEFAULT_IDS[env_id])
+    check_kinder_env(env_id)
 
 
 @pytest.mark.slow
@@ -100,7 +93,7 @@ def test_cross_process_determinism():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("env_id", list(DEFAULT_IDS))
+@pytest.mark.parametrize("env_id", DEFAULT_IDS)
 def test_cross_process_determinism_per_family(env_id):
     check_cross_process_determinism(env_id)
 

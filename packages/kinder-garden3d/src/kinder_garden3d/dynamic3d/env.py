@@ -176,6 +176,10 @@ class Dynamic3DEnv(ObjectCentricEnv):
       be clipped and checked.
     * Every task starts with its goal unsatisfied; BalanceBeam3D's goal also requires the blocks
       on the beam (as in upstream 0.2.5).
+    * Kitchen drawers slide only where a task lists them (`working_drawers`; SweepIntoDrawer3D's
+      middle drawer); the others are welded shut and not observed.
+    * The robot's `base` camera is oriented with the spec's MuJoCo euler angles
+      (0, −45°, −90°) when the scene is assembled.
 
     ## References
     KinDER (RSS 2026), environments.md §5; TidyBot++ (CoRL 2024); MuJoCo.
