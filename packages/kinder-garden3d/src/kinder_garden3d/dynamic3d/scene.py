@@ -244,13 +244,13 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int]) -> Scene:
     <global offwidth="{max(width, 640)}" offheight="{max(height, 480)}"/>
     <map znear="0.005" zfar="30"/>
     <quality shadowsize="2048"/>
-    <headlight ambient="0.35 0.35 0.35" diffuse="0.5 0.5 0.5" specular="0.1 0.1 0.1"/>
+    <headlight ambient="0.3 0.3 0.3" diffuse="0.35 0.35 0.35" specular="0.05 0.05 0.05"/>
   </visual>
   <asset>
     <texture name="sky" type="skybox" builtin="gradient" rgb1="0.92 0.94 0.97" rgb2="0.7 0.75 0.82"
       width="64" height="64"/>
-    <texture name="floor" type="2d" builtin="checker" rgb1="0.82 0.82 0.80" rgb2="0.74 0.74 0.72"
-      width="256" height="256"/>
+    <texture name="floor" type="2d" builtin="checker" rgb1="0.8 0.8 0.78" rgb2="0.74 0.74 0.72"
+      width="512" height="512"/>
     <material name="floor" texture="floor" texrepeat="1 1" texuniform="true" specular="0"
       shininess="0"/>
   </asset>
@@ -259,8 +259,8 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int]) -> Scene:
 {DEFAULT_CLASSES}
   </default>
   <worldbody>
-    <light name="sun" pos="1 -1 4" dir="-0.2 0.2 -1" directional="true" diffuse="0.6 0.6 0.6"
-      castshadow="true"/>
+    <light name="sun" pos="1 -1 4" dir="-0.3 0.3 -1" directional="true" diffuse="0.45 0.45 0.45"
+      specular="0.1 0.1 0.1" castshadow="false"/>
     <geom name="floor" type="plane" size="0 0 0.05" material="floor" class="{FIXTURE_CLASS}"/>
 {world_markers}
 {chr(10).join(statics)}

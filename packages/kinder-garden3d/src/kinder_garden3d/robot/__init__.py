@@ -11,3 +11,8 @@ Modules (import them directly; this package imports nothing heavy):
 
 Sources of every number are listed in this folder's ``README.md``.
 """
+
+from kinder_garden3d.headless_gl import configure_headless_gl
+
+# ik.py imports mujoco; MuJoCo fixes its GL backend at import, so choose a headless one first.
+configure_headless_gl()

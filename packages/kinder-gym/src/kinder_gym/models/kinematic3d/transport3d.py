@@ -130,7 +130,7 @@ class PickController(_ReachController):
     params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
     params_doc = (
         "(dist, angle): the base stands 0.45 + 0.2·dist metres from the grasp point, approaching "
-        "from (angle − 0.5)·π/2 radians off the line from the robot to the object."
+        "from (angle − 0.5)·π radians off the line from the robot to the object."
     )
 
     def initiable(self, state: ObjectCentricState) -> bool:
@@ -142,9 +142,8 @@ class PickController(_ReachController):
         f = state[obj]
         pos = np.asarray(f[:3], dtype=np.float64)
         base = np.asarray(state[robot][:2], dtype=np.float64)
-        angle = math.atan2(pos[1] - base[1], pos[0] - base[0]) + (float(self.params[1]) - 0.5) * (
-            math.pi / 2
-        )
+        offset = (float(self.params[1]) - 0.5) * math.pi
+        angle = math.atan2(pos[1] - base[1], pos[0] - base[0]) + offset
         obj_yaw = _yaw_of(np.asarray(f[3:7]))
         half = np.asarray(f[9:12], dtype=np.float64)
         if f[8] > 0:  # a container: grasp the top of the wall nearest the robot
@@ -167,8 +166,10 @@ class PickController(_ReachController):
         else:
             grasp = pos.copy()
             close_dir = obj_yaw
-        # Fingers close along ee_yaw + π/2: pick the face direction closest to the approach.
-        candidates = [close_dir - math.pi / 2 + k * math.pi / 2 for k in range(4)]
+        # Fingers close along ee_yaw + π/2: across the wall for the box (two yaws), across any
+        # pair of faces for a cube (four yaws); take the one closest to the approach direction.
+        turns = (0, 2) if f[8] > 0 else (0, 1, 2, 3)
+        candidates = [close_dir - math.pi / 2 + k * math.pi / 2 for k in turns]
         ee_yaw = min(candidates, key=lambda y: abs(wrap(y - angle)))
         base_goal = self._standoff(state, grasp, dist, angle)
         return self._sequence(state, base_goal, grasp, top_down_quat(ee_yaw), -1.0, salt=1)
