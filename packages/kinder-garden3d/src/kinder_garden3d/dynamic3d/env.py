@@ -202,7 +202,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
             try:
                 config = Dynamic3DConfig(**config)
             except TypeError as e:
-                raise ValueError(f"Dynamic3DEnv: bad config {dict(config)}: {e}") from None
+                raise ValueError(f"Dynamic3DEnv: bad config {config!r}: {e}") from None
         self.config = config
         self.task: TaskSpec = load_task(task, num_objects)
         cfg = self.config
