@@ -53,6 +53,11 @@ def run_speed(
     if args.render:
         cmd.append("--render")
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    if str(python) != sys.executable:
+        # Upstream forces MUJOCO_GL=osmesa when DISPLAY is unset (no OSMesa here, so it silently
+        # registers no Dynamic3D ids) and downloads MimicLabs scenes unless told not to.
+        env.setdefault("DISPLAY", ":99")
+        env["DISABLE_AUTO_DYNAMIC3D_SCENES_DOWNLOAD"] = "1"
     with tempfile.TemporaryDirectory() as tmp:  # outside the repo: no workspace on the path
         out = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp, env=env)
     # Simulators may print to stdout without a newline (upstream pybullet prints "base_root"), so
