@@ -31,6 +31,7 @@ from kinder_bench.agents.random_agent import RandomAgent
 AGENTS: dict[str, str] = {
     "random": "kinder_bench.agents.random_agent:RandomAgent",
     "mpc": "kinder_bench.agents.mpc:MPCAgent",
+    "bilevel_planning": "kinder_bench.baselines.bilevel_planning:BilevelPlanningAgent",
 }
 
 

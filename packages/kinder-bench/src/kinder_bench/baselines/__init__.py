@@ -1,0 +1,1 @@
+"""KinDERBench baselines beyond the agents package (bilevel planning)."""
