@@ -26,7 +26,7 @@ Classifier = Callable[[ObjectCentricState, Sequence[Object]], bool]
 
 @dataclass(frozen=True, order=True)
 class Variable:
-    """A typed placeholder for an object in a lifted atom or operator. Names start with ``?``."""
+    """A typed variable for an object in a lifted atom or operator. Names start with ``?``."""
 
     name: str
     type: Type = field(compare=False)
