@@ -25,6 +25,7 @@ MODELS: dict[str, str] = {
     "DynPushPullHook2D": "kinder_gym.models.dynamic2d.dyn_pushpullhook2d:create_model",
     "BaseMotion3D": "kinder_gym.models.kinematic3d.base_motion3d:create_model",
     "Transport3D": "kinder_gym.models.kinematic3d.transport3d:create_model",
+    "Shelf3D": "kinder_gym.models.dynamic3d.shelf3d:create_model",
 }
 
 _ID_RE = re.compile(r"^kinder/(?P<family>[A-Za-z0-9]+)(?:-.+?)?-v\d+$")

@@ -1,0 +1,390 @@
+"""The Shelf3D planning model: pick 2 cm cubes off the floor and put them on shelf 2 of a cupboard.
+
+Concepts:
+
+* ``HandEmpty(robot)``: the fingers are open (measured closure below 0.2).
+* ``Holding(robot, cube)``: the fingers are closed and the pinch point is within 4 cm of the
+  cube's centre, which is off the floor.
+* ``OnGround(cube)``: not held and the cube's centre is below 5 cm.
+* ``OnShelf(cube, cupboard)``: not held and the cube is in the cupboard's goal region (the env's
+  own ``on`` predicate, so the goal atoms imply the env's goal).
+
+Operators: ``Pick(?robot, ?cube)`` (pre HandEmpty, OnGround; add Holding; delete HandEmpty,
+OnGround) and ``Place(?robot, ?cube, ?cupboard)`` (pre Holding; add HandEmpty, OnShelf; delete
+Holding). Goal: every cube OnShelf, and HandEmpty.
+
+Skills (see :mod:`kinder_gym.models.dynamic3d.tidybot` for how targets are tracked):
+
+* Pick: retract the arm, drive the base straight to a sampled standoff facing the cube along one
+  of its faces (the straight path must keep the chassis clear of the cupboard, and its centre
+  5 cm from the other cubes on the floor, which the raised chassis passes over), reach above the
+  cube with the gripper pitched 45° down, descend along a straight line, close, and lift
+  straight up to above the height of shelf 2.
+* Place: keep the arm as it is, drive the base to a point in front of the cupboard facing it,
+  drive in so that the cube reaches a sampled spot of the shelf, open, and back out.
+
+The skills read the cupboard's pose and the goal region from the state and the env, so any count
+variant works. Imports kinder_garden3d (the ``[3d]`` extra).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.dynamic3d.object_types import FIXTURE_TYPE, MOVABLE_TYPE, ROBOT_TYPE
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
+from kinder_gym.models.dynamic3d.tidybot import (
+    HOME,
+    Dynamic3DController,
+    Segment,
+    SegmentSource,
+    arm_joints,
+    base_pose,
+    gripper_quat,
+    ik_near,
+    line_segments,
+    pinch_position,
+)
+from kinder_gym.motion_planning import FloatArray, wrap_angle
+from kinder_gym.operators import LiftedOperator
+from kinder_gym.skills import Skill, SkillFailure
+
+GOAL_REGION = "cupboard_1_goal_region"
+#: Gripper closure above which the hand counts as closed.
+CLOSED = 0.2
+#: Radius (m) of a circle around the 0.4 m square chassis, plus a margin.
+CHASSIS_RADIUS = 0.3
+#: Distance (m) the base centre keeps from other cubes on the floor while it drives. The chassis'
+#: underside is 2 cm above the floor, the height of a cube, so it passes over them; measured on
+#: Shelf3D-o2/o4, keeping the whole chassis clear only made most standoffs unreachable.
+CUBE_CLEARANCE = 0.05
+#: Pitch of the gripper below the horizontal while grasping and carrying (rad).
+PITCH = math.radians(45.0)
+#: Height (m) of the pinch point above the shelf top while carrying and placing.
+CARRY_ABOVE_SHELF = 0.07
+#: Distance (m) from the cupboard front at which the pinch point waits before driving in.
+PRE_PLACE = 0.15
+GRIP_STEPS = 8
+#: Half-range (m) of the place spot along the shelf, from its centre.
+LATERAL = 0.22
+#: Distance (m) along the shelf kept between a place spot and the cubes already there.
+SPACING = 0.06
+#: Height (m) of the pinch point when the fingers close on a cube lying on the floor.
+GRASP_Z = 0.016
+#: Base speed limits (m, rad per action) while carrying a cube on the outstretched arm.
+CARRY_SPEED = (0.06, 0.06)
+#: Arm joints from which IK finds the forward-reaching, elbow-up grasp configurations.
+READY = np.array([0.0, 0.26, math.pi, -2.27, 0.0, 0.96, math.pi / 2])
+
+
+def _yaw_of(q: FloatArray) -> float:
+    """Yaw of a (w, x, y, z) quaternion."""
+    w, x, y, z = (float(v) for v in q)
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def _segment_point_distance(a: FloatArray, b: FloatArray, p: FloatArray) -> float:
+    ab = b - a
+    t = 0.0 if not ab.any() else float(np.clip(np.dot(p - a, ab) / np.dot(ab, ab), 0.0, 1.0))
+    return float(np.linalg.norm(a + t * ab - p))
+
+
+def _segment_rect_distance(
+    a: FloatArray, b: FloatArray, centre: FloatArray, axes: FloatArray, half: FloatArray
+) -> float:
+    """Distance between a segment and a rotated rectangle (sampled along the segment)."""
+    n = max(2, math.ceil(float(np.linalg.norm(b - a)) / 0.02) + 1)
+    pts = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+    local = (pts - centre) @ axes  # columns of axes: the rectangle's unit axes
+    excess = np.maximum(np.abs(local) - half, 0.0)
+    return float(np.min(np.linalg.norm(excess, axis=1)))
+
+
+@dataclass(frozen=True)
+class ShelfContext:
+    """What the Shelf3D controllers need besides the state."""
+
+    env: ObjectCentricEnv
+    robot: Object
+    cupboard: Object
+    cubes: tuple[Object, ...]
+
+
+class _ShelfGeometry:
+    """The cupboard and the goal region in a state (their frames are fixed per episode)."""
+
+    def __init__(self, ctx: ShelfContext, state: ObjectCentricState) -> None:
+        env = ctx.env
+        frame = env.regions.transform(state, GOAL_REGION)  # type: ignore[attr-defined]
+        self.origin = np.asarray(frame[:3, 3], dtype=np.float64)  # shelf-2 top, centre
+        self.lateral = np.asarray(frame[:2, 0], dtype=np.float64)  # along the shelf
+        self.front = np.asarray(frame[:2, 1], dtype=np.float64)  # out of the opening
+        self.centre = np.array([state.get(ctx.cupboard, "x"), state.get(ctx.cupboard, "y")])
+        params = env.task.fixtures[ctx.cupboard.name].params  # type: ignore[attr-defined]
+        self.length = float(params["length"])
+        self.depth = float(params["depth"])
+        self.axes = np.stack([self.lateral, self.front], axis=1)
+        self.half = np.array([self.length / 2, self.depth / 2])
+
+    def clear_of_cupboard(self, a: FloatArray, b: FloatArray, margin: float) -> bool:
+        d = _segment_rect_distance(a, b, self.centre, self.axes, self.half)
+        return d > CHASSIS_RADIUS + margin
+
+
+def _floor_cubes(
+    state: ObjectCentricState, cubes: Sequence[Object], skip: Object | None
+) -> list[FloatArray]:
+    return [
+        np.array([state.get(c, "x"), state.get(c, "y")])
+        for c in cubes
+        if c != skip and state.get(c, "z") < 0.05
+    ]
+
+
+def _path_clear(
+    geometry: _ShelfGeometry, a: FloatArray, b: FloatArray, obstacles: Sequence[FloatArray]
+) -> bool:
+    if not geometry.clear_of_cupboard(a, b, 0.05):
+        return False
+    return all(_segment_point_distance(a, b, p) > CUBE_CLEARANCE for p in obstacles)
+
+
+def _spot_free(
+    ctx: ShelfContext,
+    state: ObjectCentricState,
+    geometry: _ShelfGeometry,
+    cube: Object,
+    lateral: float,
+) -> bool:
+    """Whether no other cube in the cupboard lies within ``SPACING`` along the shelf of
+    ``lateral``."""
+    for other in ctx.cubes:
+        if other == cube:
+            continue
+        rel = np.array([state.get(other, "x"), state.get(other, "y")]) - geometry.origin[:2]
+        inside = abs(float(rel @ geometry.front)) < geometry.depth / 2 + 0.02
+        if inside and abs(float(rel @ geometry.lateral) - lateral) < SPACING:
+            return False
+    return True
+
+
+class _ShelfController(Dynamic3DController):
+    def _drive(
+        self,
+        goal: FloatArray,
+        arm: FloatArray,
+        gripper: float,
+        tol: float,
+        speed: tuple[float, float] = (0.1, 0.1),
+    ) -> Segment:
+        state = self.state
+        assert state is not None
+        start = base_pose(state, self.robot)
+        dist = float(np.linalg.norm(goal[:2] - start[:2]))
+        turn = abs(wrap_angle(float(goal[2] - start[2])))
+        steps = math.ceil(max(dist / speed[0], turn / speed[1])) + 40
+        return Segment(
+            base=(float(goal[0]), float(goal[1]), float(goal[2])),
+            arm=tuple(float(v) for v in arm),
+            gripper=gripper,
+            arm_tol=0.05,
+            base_tol=tol,
+            max_steps=steps,
+            base_speed=speed,
+        )
+
+
+class PickController(_ShelfController):
+    """Pick a cube off the floor. Objects: ``(robot, cube)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
+    params_doc = (
+        "(dist, angle): the base stops 0.50 + 0.10·dist metres short of the cube, approaching "
+        "along the cube face nearest to the heading (angle − 0.5)·π/2 radians off the one that "
+        "faces the cupboard's opening."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") < CLOSED
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        ctx: ShelfContext = self.context
+        robot, cube = self.objects
+        geometry = _ShelfGeometry(ctx, state)
+        dist = 0.50 + 0.10 * float(self.params[0])
+        c = np.array([state.get(cube, "x"), state.get(cube, "y")])
+        b0 = base_pose(state, robot)
+        # Approach roughly facing the cupboard: the carry to it then needs little turning.
+        facing = math.atan2(-geometry.front[1], -geometry.front[0])
+        wanted = facing + (float(self.params[1]) - 0.5) * math.pi / 2
+        cube_yaw = _yaw_of(np.asarray(state[cube][3:7]))
+        k = round((wanted - cube_yaw) / (math.pi / 2))
+        heading = wrap_angle(cube_yaw + k * math.pi / 2)
+        direction = np.array([math.cos(heading), math.sin(heading)])
+        goal = np.array([*(c - dist * direction), heading])
+        obstacles = _floor_cubes(state, ctx.cubes, cube)
+        if not _path_clear(geometry, b0[:2], goal[:2], obstacles):
+            raise SkillFailure("Pick: the straight base path is blocked")
+        quat = gripper_quat(heading, PITCH)
+        carry_z = float(geometry.origin[2]) + CARRY_ABOVE_SHELF
+        grasp = np.array([*(c - 0.005 * direction), GRASP_Z])
+        above = np.array([*(c - 0.01 * direction), 0.15])
+
+        def reach_above(s: ObjectCentricState) -> list[Segment]:
+            q = ik_near(above, quat, base_pose(s, robot), READY)
+            return [Segment(arm=tuple(q), arm_tol=0.01, max_steps=80)]
+
+        def descend(s: ObjectCentricState) -> list[Segment]:
+            return line_segments(s, robot, grasp, heading, PITCH, 0.0)
+
+        def lift(s: ObjectCentricState) -> list[Segment]:
+            target = np.array([*pinch_position(base_pose(s, robot), arm_joints(s, robot))[:2],
+                               carry_z])  # fmt: skip
+            return line_segments(s, robot, target, heading, PITCH, 1.0, spacing=0.06)
+
+        close = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
+        plan: list[SegmentSource] = []
+        if np.abs(arm_joints(state, robot) - HOME).max() > 0.05:
+            plan.append(Segment(arm=tuple(HOME), arm_tol=0.05, max_steps=80))
+        plan += [self._drive(goal, HOME, 0.0, 0.01), reach_above, descend, close, lift]
+        return plan
+
+
+class PlaceController(_ShelfController):
+    """Place the held cube on shelf 2. Objects: ``(robot, cube, cupboard)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
+    params_doc = (
+        "(u, v): the pinch point goes to 0.22·(2u − 1) metres along the shelf from its centre "
+        "and (0.08·v − 0.02) metres from its centre towards the opening, before the hand opens."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") >= CLOSED
+
+    def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
+        """Uniform, with the spot along the shelf redrawn (up to 50 times) while it is taken."""
+        ctx: ShelfContext = self.context
+        geometry = _ShelfGeometry(ctx, state)
+        params = rng.uniform(0.0, 1.0, 2)
+        for _ in range(50):
+            if _spot_free(ctx, state, geometry, self.objects[1], LATERAL * (2 * params[0] - 1)):
+                break
+            params[0] = rng.uniform()
+        return params
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        ctx: ShelfContext = self.context
+        robot, cube = self.objects[:2]
+        geometry = _ShelfGeometry(ctx, state)
+        lateral = LATERAL * (2 * float(self.params[0]) - 1)
+        inward = 0.08 * float(self.params[1]) - 0.02
+        if not _spot_free(ctx, state, geometry, cube, lateral):
+            raise SkillFailure("Place: the spot is next to a cube already on the shelf")
+        b0 = base_pose(state, robot)
+        arm = arm_joints(state, robot)
+        heading = math.atan2(-geometry.front[1], -geometry.front[0])  # face the opening
+        # The arm is held fixed: the pinch point keeps its offset in the base frame.
+        offset = pinch_position(np.array([0.0, 0.0, heading]), arm)[:2]
+        spot = geometry.origin[:2] + lateral * geometry.lateral + inward * geometry.front
+        outside = spot + (geometry.depth / 2 + PRE_PLACE - inward) * geometry.front
+        pre = np.array([*(outside - offset), heading])
+        inside = np.array([*(spot - offset), heading])
+        obstacles = _floor_cubes(state, ctx.cubes, cube)
+        if not _path_clear(geometry, b0[:2], pre[:2], obstacles):
+            raise SkillFailure("Place: the straight base path to the cupboard is blocked")
+        release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
+        return [
+            self._drive(pre, arm, 1.0, 0.01, CARRY_SPEED),
+            Segment(
+                base=tuple(inside),
+                arm=tuple(arm),
+                gripper=1.0,
+                arm_tol=0.05,
+                base_tol=0.005,
+                max_steps=40,
+            ),
+            release,
+            Segment(base=tuple(pre), arm=tuple(arm), arm_tol=0.05, base_tol=0.02, max_steps=40),
+        ]
+
+
+def create_model(env: ObjectCentricEnv) -> PlanningModel:
+    """The Shelf3D planning model (any number of cubes)."""
+    robot_obj: Object = env.objects["robot"]  # type: ignore[attr-defined]
+    cupboard: Object = env.objects["cupboard_1"]  # type: ignore[attr-defined]
+    objects: dict[str, Object] = env.objects  # type: ignore[attr-defined]
+    cubes = tuple(
+        sorted(
+            (o for n, o in objects.items() if n.startswith("cube")),
+        )
+    )
+    ctx = ShelfContext(env, robot_obj, cupboard, cubes)
+
+    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
+    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    OnGround = Predicate("OnGround", (MOVABLE_TYPE,))
+    OnShelf = Predicate("OnShelf", (MOVABLE_TYPE, FIXTURE_TYPE))
+
+    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        atoms: set[GroundAtom] = set()
+        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
+        if not closed:
+            atoms.add(HandEmpty.ground([robot_obj]))
+        pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))
+        on = env.goal_atoms(state)  # type: ignore[attr-defined]
+        for c in cubes:
+            pos = np.asarray(state[c][:3])
+            if closed and pos[2] > 0.015 and np.linalg.norm(pos - pinch) < 0.04:
+                atoms.add(Holding.ground([robot_obj, c]))
+            elif pos[2] < 0.05:
+                atoms.add(OnGround.ground([c]))
+            elif on[f"on({c.name}, {GOAL_REGION})"]:
+                atoms.add(OnShelf.ground([c, cupboard]))
+        return frozenset(atoms)
+
+    r = Variable("?robot", ROBOT_TYPE)
+    c = Variable("?cube", MOVABLE_TYPE)
+    f = Variable("?cupboard", FIXTURE_TYPE)
+    pick = LiftedOperator(
+        "Pick",
+        (r, c),
+        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
+        frozenset({Holding.lift([r, c])}),
+        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
+    )
+    place = LiftedOperator(
+        "Place",
+        (r, c, f),
+        frozenset({Holding.lift([r, c])}),
+        frozenset({HandEmpty.lift([r]), OnShelf.lift([c, f])}),
+        frozenset({Holding.lift([r, c])}),
+    )
+
+    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        del state
+        return frozenset(
+            {HandEmpty.ground([robot_obj])} | {OnShelf.ground([c, cupboard]) for c in cubes}
+        )
+
+    return PlanningModel(
+        name="shelf3d",
+        env=env,
+        types=(ROBOT_TYPE, MOVABLE_TYPE, FIXTURE_TYPE),
+        predicates=(HandEmpty, Holding, OnGround, OnShelf),
+        skills=(Skill(pick, PickController, ctx), Skill(place, PlaceController, ctx)),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        objects_fn=lambda state: [robot_obj, cupboard, *cubes],
+        max_skill_horizon=400,
+    )
+
+
+__all__: Sequence[str] = ["PickController", "PlaceController", "create_model"]
