@@ -170,6 +170,7 @@ def test_planning_failure_is_raised_by_the_next_act() -> None:
         ("kinder/DynPushPullHook2D-o0-v0", [6, 9]),
         ("kinder/BaseMotion3D-v0", range(2)),
         ("kinder/Transport3D-o1-v0", range(1)),
+        ("kinder/Shelf3D-o1-v0", range(2)),
     ],
 )
 def test_solves_small_seeded_instances(env_id: str, seeds: Sequence[int]) -> None:
