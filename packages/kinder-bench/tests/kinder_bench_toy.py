@@ -99,8 +99,12 @@ if TOY_ID not in gymnasium.registry:
     )
 
 
+CRASH_THINK = 0.05
+
+
 class CrashingAgent(Agent[NoArgs]):
-    """Raises in ``act`` at step 3 of every odd episode seed; else stays still."""
+    """Raises in ``act`` at step 3 of every odd episode seed, after thinking for
+    :data:`CRASH_THINK` seconds; else stays still."""
 
     name = "crashing"
 
@@ -116,6 +120,7 @@ class CrashingAgent(Agent[NoArgs]):
     def act(self, obs: Any) -> NDArray[np.float64]:
         self._t += 1
         if self._odd and self._t == 3:
+            time.sleep(CRASH_THINK)
             raise ValueError("boom")
         return np.zeros(2)
 

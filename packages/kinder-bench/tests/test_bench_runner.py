@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from kinder_bench_toy import CRASH_THINK
 
 from kinder_bench.results import CONFIG_FILE, RESULTS_FILE, append_record, load_records
 from kinder_bench.runner import (
@@ -181,6 +182,8 @@ def test_agent_crash_is_recorded_as_a_failure(toy_id: str, tmp_path: Path) -> No
         assert r["env_seed"] % 2 == 1
         assert r["success"] is False and r["steps"] == 2 and r["error_in"] == "agent"
         assert r["error"] == "ValueError: boom" and "boom" in r["traceback"]
+        # The time of the call that raised is counted (a sleep lasts at least its duration).
+        assert r["inference_time"] >= CRASH_THINK
 
 
 def test_unknown_env_and_agent_fail_before_running(toy_id: str, tmp_path: Path) -> None:

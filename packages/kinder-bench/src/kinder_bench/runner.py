@@ -245,14 +245,20 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         if frames is not None:
             frames.append(env.render())
         phase = "agent"
+        # Agent time is counted in `finally`, so a call that raises (e.g. a planner giving up
+        # after its budget) still reports the time it spent.
         t0 = time.perf_counter()
-        agent.reset(obs, info)
-        inference_time += time.perf_counter() - t0
+        try:
+            agent.reset(obs, info)
+        finally:
+            inference_time += time.perf_counter() - t0
         while steps < task.max_steps:
             phase = "agent"
             t0 = time.perf_counter()
-            action = agent.act(obs)
-            inference_time += time.perf_counter() - t0
+            try:
+                action = agent.act(obs)
+            finally:
+                inference_time += time.perf_counter() - t0
             phase = "env"
             t0 = time.perf_counter()
             obs, r, terminated, truncated, info = env.step(action)

@@ -24,10 +24,9 @@ The refined plan is a list of actions, executed from the agent's :meth:`act`. Ex
 monitored: the agent remembers the state each action was planned from and, when the observed
 state differs (``divergence_atol``), plans again from the observed state (``max_replans`` times
 per episode); it also plans again if the actions run out before the episode ends. The upstream
-agent is open-loop (no monitoring). When planning fails, :meth:`act` raises
-:class:`~kinder_bench.agents.base.AgentFailure` on its next call (after one zero action when a
-re-planning call failed), so that the runner, which times the calls that return, records the
-time spent on the failed planning.
+agent is open-loop (no monitoring). When planning fails, the call that planned (:meth:`reset` or
+:meth:`act`) raises :class:`~kinder_bench.agents.base.AgentFailure`; the runner counts the time
+of calls that raise, so the failed planning time is part of the episode's inference time.
 
 Everything random comes from the agent's seeded RNG, so an episode's plan is reproducible.
 """
@@ -344,15 +343,15 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
         self._failure = None
         self._replan(self.observed_state(obs), first=True)
 
-    def _replan(self, state: ObjectCentricState, first: bool = False) -> bool:
-        """Plan from ``state``; on failure remember why and return False."""
+    def _replan(self, state: ObjectCentricState, first: bool = False) -> None:
+        """Plan from ``state``; raise AgentFailure (and remember why) when that fails."""
         if not first:
             if self.replans >= self.args.max_replans:
                 self._failure = (
                     f"{self.name}: plan diverged or ran out and the re-planning budget "
                     f"({self.args.max_replans}) is spent"
                 )
-                return False
+                raise AgentFailure(self._failure)
             self.replans += 1
         plan = self.planner.plan(state, self.rng)
         self.history.append(self.planner.stats)
@@ -363,14 +362,11 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
                 f"{s.skill_samples} skill samples, {s.time:.1f} s"
                 f"{', timed out' if s.timed_out else ''})"
             )
-            return False
+            raise AgentFailure(self._failure)
         self._plan = plan
         self._t = 0
-        return True
 
     def act(self, obs: Any) -> FloatArray:
-        # A planning failure is raised on the next call, not by the call that planned: the
-        # runner counts the time of calls that return, so the failed planning time is recorded.
         if self._failure is not None:
             raise AgentFailure(self._failure)
         if self._plan is None:
@@ -381,8 +377,8 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
             self.args.replan_on_divergence
             and not _close(state, plan.states[self._t], self.args.divergence_atol)
         )
-        if stale and not self._replan(state):
-            return np.zeros(self.action_space.shape, dtype=np.float64)
+        if stale:
+            self._replan(state)
         plan = self._plan
         action = plan.actions[self._t]
         self._t += 1
