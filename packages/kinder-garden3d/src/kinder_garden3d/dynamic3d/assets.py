@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -302,7 +302,11 @@ def _can(name: str, p: Params) -> ObjectAsset:
 
 def _screw(name: str, p: Params) -> ObjectAsset:
     """A screw lying along x: a short fat head and a thinner shaft, both capsules (a stand-in for
-    the scaled fastener meshes; capsules collide much faster than cylinders)."""
+    the scaled fastener meshes; capsules collide much faster than cylinders).
+
+    Its contacts are stiffer than MuJoCo's default (``solref`` time constant 4 ms instead of
+    20 ms): a 20 g screw swept off a counter falls 0.26 m, and with the default soft contact it
+    sank through the 1 cm floor of a drawer in most tumbling drops."""
     length, head_d, head_l, shaft_d = (
         float(p["length"]), float(p["head_diameter"]), float(p["head_length"]),
         float(p["shaft_diameter"]),
@@ -318,7 +322,9 @@ def _screw(name: str, p: Params) -> ObjectAsset:
              p["rgba"], "capsule", along_x),
     ]  # fmt: skip
     del head_r, shaft_r
-    return _simple(name, parts, p["mass"], p["friction"])
+    asset = _simple(name, parts, p["mass"], p["friction"])
+    solref = f'<geom solref="{_f(p["solref"])}" '
+    return replace(asset, geoms=asset.geoms.replace("<geom ", solref))
 
 
 def _wiper(name: str, p: Params) -> ObjectAsset:
@@ -449,7 +455,8 @@ OBJECT_TYPES: dict[str, tuple[Callable[[str, Params], ObjectAsset], Params]] = {
     "screw": (
         _screw,
         {"length": 0.045, "head_diameter": 0.018, "head_length": 0.008, "shaft_diameter": 0.009,
-         "mass": 0.02, "rgba": [0.6, 0.6, 0.65, 1.0], "friction": _FRICTION},
+         "mass": 0.02, "rgba": [0.6, 0.6, 0.65, 1.0], "friction": _FRICTION,
+         "solref": [0.004, 1.0]},
     ),
     "wiper": (
         _wiper,
