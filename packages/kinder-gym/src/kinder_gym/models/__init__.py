@@ -26,6 +26,9 @@ MODELS: dict[str, str] = {
     "BaseMotion3D": "kinder_gym.models.kinematic3d.base_motion3d:create_model",
     "Transport3D": "kinder_gym.models.kinematic3d.transport3d:create_model",
     "Shelf3D": "kinder_gym.models.dynamic3d.shelf3d:create_model",
+    "Obstruction3D": "kinder_gym.models.kinematic3d.obstruction3d:create_model",
+    "Packing3D": "kinder_gym.models.kinematic3d.packing3d:create_model",
+    "Table3D": "kinder_gym.models.kinematic3d.table3d:create_model",
 }
 
 _ID_RE = re.compile(r"^kinder/(?P<family>[A-Za-z0-9]+)(?:-.+?)?-v\d+$")

@@ -1,0 +1,89 @@
+"""The Table3D planning model: pick any cube off the table and hold it up.
+
+Upstream has no planning model for this family. The env's goal ("some cube is held more than
+0.1 m above the table top") is disjunctive over the cubes, so it is one atom about the robot:
+
+* ``HandEmpty(robot)`` / ``Holding(robot, cube)``.
+* ``OnTable(cube)``: not held.
+* ``HoldingUp(robot)``: the held cube's centre is more than the env's ``lift_height`` above the
+  table top (the env's goal test).
+
+One operator, ``Pick(?robot, ?cube)``: pre HandEmpty, OnTable; add Holding, HoldingUp; delete
+HandEmpty, OnTable. Goal: ``HoldingUp(robot)``; the search tries the cubes in turn when one
+cannot be refined.
+
+The skill is Transport3D's pick
+(:class:`~kinder_gym.models.kinematic3d.transport3d.PickController`): retract, drive the base to a
+sampled standoff facing the cube (OMPL SE(2) path), reach above it, descend, close and lift by
+0.12 m, which puts the cube's centre 0.145 m above the table top. Imports kinder_garden3d (the
+``[3d]`` extra).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
+from kinder_gym.models.kinematic3d.transport3d import PickController
+from kinder_gym.operators import GroundOperator, LiftedOperator
+from kinder_gym.skills import Skill
+
+
+def create_model(env: ObjectCentricEnv) -> PlanningModel:
+    """The Table3D planning model (any number of cubes)."""
+    robot_obj: Object = env.robot  # type: ignore[attr-defined]
+    table_obj: Object = env.table  # type: ignore[attr-defined]
+    cubes: list[Object] = list(env.cubes)  # type: ignore[attr-defined]
+
+    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
+    Holding = Predicate("Holding", (ROBOT_TYPE, CUBOID_TYPE))
+    OnTable = Predicate("OnTable", (CUBOID_TYPE,))
+    HoldingUp = Predicate("HoldingUp", (ROBOT_TYPE,))
+
+    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        atoms: set[GroundAtom] = set()
+        if state.get(robot_obj, "grasp_active") < 0.5:
+            atoms.add(HandEmpty.ground([robot_obj]))
+        for c in cubes:
+            if state.get(c, "grasp_active") > 0.5:
+                atoms.add(Holding.ground([robot_obj, c]))
+            else:
+                atoms.add(OnTable.ground([c]))
+        if env.goal_reached(state):
+            atoms.add(HoldingUp.ground([robot_obj]))
+        return frozenset(atoms)
+
+    r = Variable("?robot", ROBOT_TYPE)
+    c = Variable("?cube", CUBOID_TYPE)
+    pick = LiftedOperator(
+        "Pick",
+        (r, c),
+        frozenset({HandEmpty.lift([r]), OnTable.lift([c])}),
+        frozenset({Holding.lift([r, c]), HoldingUp.lift([r])}),
+        frozenset({HandEmpty.lift([r]), OnTable.lift([c])}),
+    )
+
+    def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
+        return op.objects[1] in cubes
+
+    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        return frozenset({HoldingUp.ground([robot_obj])})
+
+    return PlanningModel(
+        name="table3d",
+        env=env,
+        types=(ROBOT_TYPE, CUBOID_TYPE),
+        predicates=(HandEmpty, Holding, OnTable, HoldingUp),
+        skills=(Skill(pick, PickController, env),),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        max_skill_horizon=200,
+        operator_filter=keep,
+        objects_fn=lambda s: [robot_obj, table_obj, *cubes],
+    )
+
+
+__all__: Sequence[str] = ["create_model"]
