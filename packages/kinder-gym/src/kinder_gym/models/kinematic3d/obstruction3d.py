@@ -69,7 +69,7 @@ from kinder_gym.models.kinematic3d.tidybot import (
     top_down_quat,
     wrap,
 )
-from kinder_gym.models.kinematic3d.transport3d import APPROACH, _ReachController, _seed
+from kinder_gym.models.kinematic3d.transport3d import APPROACH, ReachController, params_seed
 from kinder_gym.motion_planning import FloatArray, segment_valid
 from kinder_gym.operators import GroundOperator, LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
@@ -111,7 +111,7 @@ def overlap(
     return abs(ax - bx) < ahx + bhx + margin and abs(ay - by) < ahy + bhy + margin
 
 
-class TableTopController(_ReachController):
+class TableTopController(ReachController):
     """Reach from a chosen base pose (driving there with the arm retracted when it differs):
     arm path to above a pose, straight descent, act, lift back."""
 
@@ -138,7 +138,7 @@ class TableTopController(_ReachController):
             raise SkillFailure(f"{type(self).__name__}: the grasp/place pose collides")
         if not segment_valid(q_above, q_at, checker, np.full(10, 0.05)):
             raise SkillFailure(f"{type(self).__name__}: the final approach collides")
-        seed = _seed(self.params, salt)
+        seed = params_seed(self.params, salt)
         wps: list[ConfigWaypoint] = []
         if np.max(np.abs(config_delta(q[:3], base))) > 1e-6:
             # Drive with the arm retracted.

@@ -64,12 +64,15 @@ def _yaw_of(q: FloatArray) -> float:
     return math.atan2(float(m[1, 0]), float(m[0, 0]))
 
 
-def _seed(params: FloatArray, salt: int) -> int:
+def params_seed(params: FloatArray, salt: int) -> int:
+    """A motion-planner seed that is a function of a skill's parameters (and a salt), so that
+    the same sample always plans the same path."""
     return (int(1e6 * float(np.sum(params * np.arange(1, len(params) + 1)))) + salt) % (2**31 - 1)
 
 
-class _ReachController(TidyBotController):
-    """Shared motion pieces: retract, drive, reach down, act, lift."""
+class ReachController(TidyBotController):
+    """Shared motion pieces: retract, drive, reach down, act, lift (also used by the Obstruction3D,
+    Packing3D and Table3D models)."""
 
     def _wp(self, q: FloatArray, gripper: float = 0.0) -> ConfigWaypoint:
         return ConfigWaypoint(tuple(float(v) for v in q), gripper)
@@ -86,7 +89,7 @@ class _ReachController(TidyBotController):
         env = self.context
         checker = ConfigChecker(env, state)
         q = np.asarray(state[self.robot][:10], dtype=np.float64)
-        seed = _seed(self.params, salt)
+        seed = params_seed(self.params, salt)
         wps: list[ConfigWaypoint] = []
         # 1. Retract the arm where the robot stands.
         if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
@@ -124,7 +127,7 @@ class _ReachController(TidyBotController):
         return np.array([x, y, wrap(angle)])
 
 
-class PickController(_ReachController):
+class PickController(ReachController):
     """Pick an object off the floor. Objects: ``(robot, object)``."""
 
     params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
@@ -175,7 +178,7 @@ class PickController(_ReachController):
         return self._sequence(state, base_goal, grasp, top_down_quat(ee_yaw), -1.0, salt=1)
 
 
-class PlaceController(_ReachController):
+class PlaceController(ReachController):
     """Place the held object on the table. Objects: ``(robot, object, table)``."""
 
     params_space = spaces.Box(0.0, 1.0, (4,), dtype=np.float64)
@@ -279,4 +282,11 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     )
 
 
-__all__: Sequence[str] = ["PickController", "PlaceController", "create_model"]
+__all__: Sequence[str] = [
+    "APPROACH",
+    "PickController",
+    "PlaceController",
+    "ReachController",
+    "create_model",
+    "params_seed",
+]
