@@ -28,6 +28,8 @@ MODELS: dict[str, str] = {
     "Shelf3D": "kinder_gym.models.dynamic3d.shelf3d:create_model",
     "Obstruction2D": "kinder_gym.models.kinematic2d.obstruction2d:create_model",
     "ClutteredRetrieval2D": "kinder_gym.models.kinematic2d.clutteredretrieval2d:create_model",
+    "ClutteredStorage2D": "kinder_gym.models.kinematic2d.clutteredstorage2d:create_model",
+    "PushPullHook2D": "kinder_gym.models.kinematic2d.pushpullhook2d:create_model",
     "Obstruction3D": "kinder_gym.models.kinematic3d.obstruction3d:create_model",
     "Packing3D": "kinder_gym.models.kinematic3d.packing3d:create_model",
     "Table3D": "kinder_gym.models.kinematic3d.table3d:create_model",
