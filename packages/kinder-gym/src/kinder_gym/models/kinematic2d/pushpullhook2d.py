@@ -60,15 +60,6 @@ from kinder_garden2d.kinematic2d.object_types import CIRCLE, CRV_ROBOT, LOBJECT
 from kinder_garden2d.kinematic2d.predicates import is_pressed
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.kinematic2d.clutteredstorage2d import (
-    Dwell,
-    Phase,
-    ScriptController,
-    ScriptItem,
-    relative_pose,
-    tip_for,
-    with_arm,
-)
 from kinder_gym.models.kinematic2d.crv import (
     ARM_JOINT,
     ARM_LENGTH,
@@ -76,6 +67,15 @@ from kinder_gym.models.kinematic2d.crv import (
     GRIPPER_WIDTH,
     CRVCollisionChecker,
     robot_config,
+)
+from kinder_gym.models.kinematic2d.crv_script import (
+    Dwell,
+    Phase,
+    ScriptController,
+    ScriptItem,
+    relative_pose,
+    tip_for,
+    with_arm,
 )
 from kinder_gym.motion_planning import FloatArray
 from kinder_gym.operators import GroundOperator, LiftedOperator
