@@ -253,12 +253,11 @@ def _grow_to_margin(
 
 
 def _draw_order(world: KinematicWorld, data: FloatArray) -> list[int]:
-    """Static z-NONE objects (targets, regions) first, then the rest by ascending z-order."""
+    """Static objects first (targets and regions, then walls and shelves), then the movable ones,
+    each by ascending z-order: a block stored inside a shelf's opening is drawn over the shelf."""
     z = data[world.layout.indices(world.objects, ["z_order"])[:, 0]]
     static = data[world.static_idx] > 0.5
-    key = [
-        (0 if (s and zz == ZOrder.NONE) else 1, zz, i) for i, (zz, s) in enumerate(zip(z, static))
-    ]
+    key = [(0 if s else 1, zz, i) for i, (zz, s) in enumerate(zip(z, static))]
     return [i for *_, i in sorted(key)]
 
 
