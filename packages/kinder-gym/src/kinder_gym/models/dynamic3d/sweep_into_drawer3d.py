@@ -1,0 +1,595 @@
+"""The SweepIntoDrawer3D planning model: open the island's drawer, pick the wiper, sweep screws in.
+
+The scene: kitchen island at x ∈ [0.125, 0.875], top at z = 0.46; the working drawer slides out
+of its front face (world +x); screws on the top at x ∈ [0.625, 0.8], |y| ≤ 0.1; the wiper (a T of
+a 20 cm handle and a 20 cm × 2 cm × 3 cm head) lies further along −y, its handle pointing +y.
+
+Concepts:
+
+* ``DrawerOpen(drawer)`` (slide ``pos`` > 0.12 m, so that screws pushed off the top land inside)
+  and ``DrawerClosed(drawer)`` (its negation).
+* ``Holding(robot, wiper)``: the fingers are closed on something (closure in [0.3, 0.97]) and the
+  pinch point is within 5 cm of the wiper's head; ``HandEmpty(robot)`` otherwise.
+* ``InDrawer(screw)``: the env's own goal atom ``on(screw, drawer region)``, so the goal atoms
+  (every screw ``InDrawer``) are exactly the env's goal. Declared *monotone*: a sweep that drops
+  further screws into the drawer besides its target is accepted, and the later sweeps for them
+  are skipped.
+* ``Lost(screw)``: below 0.41 m but not in the drawer's region (on the floor, or stuck in the
+  drawer's bottom board). A refinement step that loses a screw is rejected, because the predicted
+  abstract state has no ``Lost`` atom.
+
+Operators: ``OpenDrawer(?robot, ?drawer)`` (pre HandEmpty, DrawerClosed; add DrawerOpen; delete
+DrawerClosed), ``PickWiper(?robot, ?wiper, ?drawer)`` (pre HandEmpty, DrawerOpen; add Holding;
+delete HandEmpty) and ``Sweep(?robot, ?wiper, ?drawer, ?screw)`` (pre Holding, DrawerOpen; add
+InDrawer(screw)). One pass usually moves several screws; the per-screw operator lets the planner
+add passes for the screws a pass missed (upstream has one sweep for all screws).
+
+Skills (segment following of :mod:`kinder_gym.models.dynamic3d.tidybot`; arm motions are joint
+interpolations and straight pinch-point lines, with mink IK seeded from the current joints):
+
+* OpenDrawer: retract, drive 0.78–0.84 m in front of the handle facing −x, reach the handle with
+  the gripper horizontal and the fingers closing vertically, grasp, drive the base 0.17–0.21 m
+  back with the arm still (the drawer follows), release, back off (no fold: the next skill
+  retracts before it drives).
+* PickWiper: retract, drive 0.72–0.78 m in front of a grasp point on the head 3–6 cm from its
+  centre (clear of the handle), reach down, close across the head, lift 7 cm, and turn the wiper
+  about the vertical so that its head lies across +x with the handle trailing (−x), as every
+  sweep pass carries it: done once here instead of in every sampled pass.
+* Sweep: drive the base (arm still) to a standoff facing −x; lower the head onto the top just
+  behind (−x of) the screws of a 24 cm band around the target screw, pressed 5–20 mm into it (a
+  head aimed only a few mm into the top rode over the screws); drive the base toward +x at
+  0.5–1.5 cm per action until the head is past the front edge; lift. Its sampler picks the
+  band's offset that covers the most screws still on the top with the head's inner 16 cm.
+
+Step counts (seed 0): OpenDrawer ≈ 110, PickWiper ≈ 200, one Sweep pass ≈ 55–100 actions, so
+a plan with two passes fits the runner's 500-step budget. Planning time is almost all MuJoCo
+stepping (``mj_step`` ≈ 90 % of a cProfile'd planning call; IK < 3 %), so the skills are kept
+short and the samplers biased rather than the IK made cheaper.
+
+Findings (MuJoCo, this env) that shaped the design:
+
+* Joint interpolations unwrap the continuous joints (1, 3, 5, 7) toward the start: the state
+  reports them unbounded while IK wraps them to [−π, π), and an interpolation toward a wrapped
+  target would spin the long way round (the shared controller wraps each segment's error, not
+  the path between segments).
+* The arm follows joint targets at about 0.05 rad per action whatever the segment tolerances
+  (PD lag behind the ±0.1 rad action bound), so joint moves use 0.3 rad waypoints (fewer IK
+  solves and segments, same speed); folding to the retract pose and unfolding is most of the
+  first two skills' steps. A "carry" pose instead of the fold was tried: no shorter in joint
+  space, and it dragged the drawer shut.
+* The retract pose is folded near joint 4's limit: Cartesian moves start from a seeded IK
+  solution reached by joint interpolation, never straight from the retract pose.
+* The base must not move while the arm is extended toward the island (it drags the drawer
+  shut): retract first, then drive.
+* Held objects creep out of the pads (MuJoCo's soft friction): holding the wiper by its 1.5 cm
+  handle, it slid out within ~5 s; the head (3 cm tall, spanning the pads' reach) holds through
+  a pick and several passes. Lifting it 10 cm made it slip out during passes on some seeds (and
+  put the pass start out of reach); 5 cm let the head brush the screws while driving: 7 cm.
+* Picking the screws one by one instead was tried and dropped: the pads can only reach the
+  equator of a screw's 18 mm head above the top, and screws slip out while carried.
+* Screws pushed off the top fall 0.26 m into the drawer. With MuJoCo's default contact
+  ``solref`` (20 ms) most tumbling screws passed through the drawer's 1 cm bottom board; the env
+  now gives screws a 4 ms ``solref`` and they stay in. What limits success now is the passes:
+  screws near the head's ends slide sideways off it, and a pass that drops some screws can lose
+  another (``Lost``), so the planner, which simulates every pass and rejects those losing a
+  screw, needs several samples per pass; on some seeds it finds no plan in 25 s.
+
+Imports kinder_garden3d (the ``[3d]`` extra).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.dynamic3d.geometry import quats_to_matrices
+from kinder_garden3d.dynamic3d.object_types import DRAWER_TYPE, MOVABLE_TYPE, ROBOT_TYPE
+from kinder_garden3d.robot.description import (
+    forward_kinematics,
+    matrix_to_quat_xyzw,
+    quat_xyzw_to_matrix,
+)
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
+from kinder_gym.models.dynamic3d.tidybot import (
+    HOME,
+    Dynamic3DController,
+    Segment,
+    SegmentSource,
+    arm_joints,
+    base_pose,
+    ik_near,
+)
+from kinder_gym.motion_planning import FloatArray
+from kinder_gym.operators import GroundOperator, LiftedOperator
+from kinder_gym.skills import Skill, SkillFailure
+
+DRAWER = "kitchen_island_drawer_1_1"
+WIPER = "wiper_0"
+GOAL_REGION = "kitchen_island_shelf_1_partition_1_region"
+#: Height of the island top (m).
+TABLE_Z = 0.46
+#: x of the island's front face, where the drawer comes out (m).
+ISLAND_FRONT = 0.875
+#: The drawer's handle bar (centre, m) when the drawer is closed; it moves +x with ``pos``.
+HANDLE = np.array([0.92, 0.0, 0.315])
+#: Drawer opening above which ``DrawerOpen`` holds (m).
+OPEN_POS = 0.12
+#: Closure range of the fingers when they hold the wiper's handle.
+HOLD_CLOSURE = (0.3, 0.97)
+#: A screw whose centre is below this height and is not in the drawer's region is lost (m).
+LOST_Z = 0.41
+#: Wiper geometry in its body frame: the head's centre (x) and the handle's axis height (z).
+HEAD_X, HANDLE_Z, HEAD_HALF_HEIGHT = 0.1, 0.0075, 0.015
+#: Height of the pinch point above the top when grasping a part lying on it: the pads reach
+#: 2.5 cm below the pinch point and must clear the top by a few millimetres.
+GRASP_ABOVE_TABLE = 0.028
+#: Height by which the wiper is lifted after picking and between passes (m): its head must
+#: clear the screws (2 cm) while the base drives over the top.
+LIFT = 0.07
+#: Continuous (unbounded) arm joints, by index.
+_CONTINUOUS = np.array([0, 2, 4, 6])
+#: IK seeds: the gripper horizontal toward −x of the base (drawer handle), and pointing down.
+_SEED_HANDLE = np.array([0.0, 1.7, math.pi, -1.7, 0.0, 1.85, 0.0])
+_SEED_DOWN = np.array([0.0, 0.6, math.pi, -1.6, 0.0, -0.9, math.pi / 2])
+
+
+# -- kinematics helpers ---------------------------------------------------------------------------
+
+
+def frame_quat(
+    approach: Sequence[float] | FloatArray, across: Sequence[float] | FloatArray
+) -> FloatArray:
+    """Gripper orientation (x, y, z, w) with the given approach (z) and closing (y) directions."""
+    z = np.asarray(approach, dtype=np.float64)
+    z = z / np.linalg.norm(z)
+    y = np.asarray(across, dtype=np.float64)
+    y = y - z * float(y @ z)
+    y = y / np.linalg.norm(y)
+    return np.asarray(matrix_to_quat_xyzw(np.stack([np.cross(y, z), y, z], axis=1)))
+
+
+def unwrap(q: FloatArray, ref: FloatArray) -> FloatArray:
+    """``q`` with its continuous joints shifted by multiples of 2π to lie nearest ``ref``."""
+    out = np.array(q, dtype=np.float64)
+    r = np.asarray(ref, dtype=np.float64)
+    out[_CONTINUOUS] = r[_CONTINUOUS] + np.mod(out[_CONTINUOUS] - r[_CONTINUOUS] + math.pi,
+                                               2 * math.pi) - math.pi  # fmt: skip
+    return out
+
+
+def ik(position: FloatArray, quat: FloatArray, base: FloatArray, near: FloatArray) -> FloatArray:
+    """IK from ``near`` (see :func:`ik_near`), unwrapped toward ``near``."""
+    return unwrap(ik_near(np.asarray(position, dtype=np.float64), quat, base, near), near)
+
+
+def pinch_pose(base: FloatArray, arm: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """World position and rotation matrix of the pinch point."""
+    tf = forward_kinematics((float(base[0]), float(base[1]), float(base[2])), arm)["pinch_site"]
+    return np.asarray(tf[:3, 3], dtype=np.float64), np.asarray(tf[:3, :3], dtype=np.float64)
+
+
+def _rot_log(m: FloatArray) -> FloatArray:
+    c = max(-1.0, min(1.0, (float(np.trace(m)) - 1.0) / 2.0))
+    th = math.acos(c)
+    if th < 1e-9:
+        return np.zeros(3)
+    if math.pi - th < 1e-6:
+        raise SkillFailure("a half-turn reorientation has no unique shortest path")
+    w = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
+    return np.asarray(w * (th / (2.0 * math.sin(th))), dtype=np.float64)
+
+
+def _rot_exp(v: FloatArray) -> FloatArray:
+    th = float(np.linalg.norm(v))
+    if th < 1e-12:
+        return np.eye(3)
+    k = v / th
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.asarray(np.eye(3) + math.sin(th) * kx + (1.0 - math.cos(th)) * (kx @ kx))
+
+
+def pose_line(
+    state: ObjectCentricState,
+    robot: Object,
+    target: FloatArray,
+    quat: FloatArray | None,
+    gripper: float,
+    spacing: float = 0.03,
+    turn_spacing: float = 0.15,
+    arm_tol: float = 0.03,
+    final_tol: float = 0.005,
+) -> list[Segment]:
+    """Segments moving the pinch point along a straight line to ``target`` while turning
+    (geodesically) to ``quat`` (None: keep the current orientation); base fixed. One IK solution
+    every ``spacing`` metres or ``turn_spacing`` radians, each seeded from the previous one."""
+    base = base_pose(state, robot)
+    q = arm_joints(state, robot)
+    p0, r0 = pinch_pose(base, q)
+    r1 = r0 if quat is None else quat_xyzw_to_matrix(quat)
+    turn = _rot_log(r0.T @ r1)
+    goal = np.asarray(target, dtype=np.float64)
+    n = max(1, math.ceil(max(float(np.linalg.norm(goal - p0)) / spacing,
+                             float(np.linalg.norm(turn)) / turn_spacing)))  # fmt: skip
+    out: list[Segment] = []
+    for k in range(1, n + 1):
+        a = k / n
+        qk = matrix_to_quat_xyzw(r0 @ _rot_exp(turn * a))
+        q = ik(p0 + (goal - p0) * a, np.asarray(qk), base, q)
+        tol = final_tol if k == n else arm_tol
+        out.append(Segment(arm=tuple(float(v) for v in q), gripper=gripper, arm_tol=tol))
+    return out
+
+
+def joint_moves(
+    q0: FloatArray, q1: FloatArray, gripper: float, spacing: float = 0.3, tol: float = 0.15
+) -> list[Segment]:
+    """Straight joint-space interpolation (continuous joints unwrapped), ``spacing`` rad apart, so
+    that all joints arrive together instead of each at its own clipped speed."""
+    a = np.asarray(q0, dtype=np.float64)
+    b = unwrap(np.asarray(q1, dtype=np.float64), a)
+    n = max(1, math.ceil(float(np.abs(b - a).max()) / spacing))
+    return [
+        Segment(
+            arm=tuple(float(v) for v in a + (b - a) * k / n),
+            gripper=gripper,
+            arm_tol=0.01 if k == n else tol,
+        )
+        for k in range(1, n + 1)
+    ]
+
+
+def wiper_pose(state: ObjectCentricState, wiper: Object) -> tuple[FloatArray, FloatArray]:
+    """The wiper's body position and rotation matrix."""
+    f = state[wiper]
+    rot = quats_to_matrices(np.asarray(f[3:7], dtype=np.float64)[None])[0]
+    return np.asarray(f[:3], dtype=np.float64), np.asarray(rot, dtype=np.float64)
+
+
+def handle_direction(rot: FloatArray) -> FloatArray:
+    """Horizontal unit vector from the wiper's head along its handle."""
+    d = -np.asarray(rot[:, 0], dtype=np.float64)
+    d[2] = 0.0
+    n = float(np.linalg.norm(d))
+    if n < 1e-6:
+        raise SkillFailure("the wiper stands on end")
+    return d / n
+
+
+def trailing_turn(rot: FloatArray) -> FloatArray:
+    """Rotation about the vertical that makes the wiper's handle trail its head (point −x)."""
+    hdir = handle_direction(rot)
+    turn = math.pi - math.atan2(hdir[1], hdir[0])
+    c, s = math.cos(turn), math.sin(turn)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+# -- controllers ----------------------------------------------------------------------------------
+
+
+class _Controller(Dynamic3DController):
+    """Shared pieces: the env, the live pinch point, retracting."""
+
+    @property
+    def env(self) -> Any:
+        """The Dynamic3D env (the skill context)."""
+        return self.context
+
+    def pinch(self, state: ObjectCentricState) -> FloatArray:
+        """The pinch point in ``state``."""
+        return pinch_pose(base_pose(state, self.robot), arm_joints(state, self.robot))[0]
+
+    def retract(self, gripper: float) -> list[SegmentSource]:
+        """Back the pinch point off the island (up, or toward +x when low), then fold the arm."""
+
+        def back_off(state: ObjectCentricState) -> list[Segment]:
+            p = self.pinch(state)
+            if p[2] > TABLE_Z + 0.1 or p[0] > ISLAND_FRONT + 0.35:
+                return []
+            step = np.array([0.1, 0.0, 0.0]) if p[2] < TABLE_Z else np.array([0.0, 0.0, 0.08])
+            return pose_line(state, self.robot, p + step, None, gripper)
+
+        def fold(state: ObjectCentricState) -> list[Segment]:
+            return joint_moves(arm_joints(state, self.robot), HOME, gripper)
+
+        return [back_off, fold]
+
+
+class OpenDrawerController(_Controller):
+    """Grasp the drawer's handle and pull it open. Objects: ``(robot, drawer)``."""
+
+    params_space = spaces.Box(np.array([0.78, 0.17]), np.array([0.84, 0.21]), dtype=np.float64)
+    params_doc = (
+        "(standoff, pull): the base stands `standoff` metres in front (+x) of the handle, facing "
+        "−x, and drives `pull` metres further back (+x) holding the handle, which opens the "
+        "drawer by about that much."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.objects[1], "pos") <= OPEN_POS
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        standoff, pull = (float(v) for v in self.params)
+        handle = HANDLE + np.array([state.get(self.objects[1], "pos"), 0.0, 0.0])
+        quat = frame_quat([-1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+        bx = float(handle[0]) + standoff
+        # The cooking area behind the robot starts at x = 2.19; the chassis is 0.4 m square.
+        if bx + pull + 0.2 > 2.18:
+            raise SkillFailure("no room behind the robot to pull the drawer")
+        segs: list[SegmentSource] = [*self.retract(0.0)]
+        segs.append(Segment(base=(bx, float(handle[1]), math.pi), max_steps=100))
+
+        def approach(st: ObjectCentricState) -> list[SegmentSource]:
+            pre = ik(handle + np.array([0.14, 0.0, 0.0]), quat, base_pose(st, self.robot),
+                     _SEED_HANDLE)  # fmt: skip
+            line = lambda s: pose_line(s, self.robot, handle, quat, 0.0)  # noqa: E731
+            return [*joint_moves(arm_joints(st, self.robot), pre, 0.0), line]
+
+        def pull_out(st: ObjectCentricState) -> list[Segment]:
+            b = base_pose(st, self.robot)
+            return [Segment(base=(float(b[0]) + pull, float(b[1]), float(b[2])), gripper=1.0,
+                            max_steps=100, base_speed=(0.05, 0.05))]  # fmt: skip
+
+        def back_off(st: ObjectCentricState) -> list[Segment]:
+            return pose_line(st, self.robot, self.pinch(st) + np.array([0.1, 0.0, 0.0]), quat, 0.0)
+
+        # No fold at the end: the next skill retracts before it drives anyway.
+        segs += [approach, Segment(gripper=1.0, min_steps=8), pull_out,
+                 Segment(gripper=0.0, min_steps=5), back_off]  # fmt: skip
+        return segs
+
+
+class PickWiperController(_Controller):
+    """Grasp the wiper's head from above and lift it. Objects: ``(robot, wiper, drawer)``."""
+
+    params_space = spaces.Box(np.array([0.03, 0.0, 0.72]), np.array([0.06, 1.0, 0.78]),
+                              dtype=np.float64)  # fmt: skip
+    params_doc = (
+        "(grip, side, standoff): grasp the head `grip` metres from its centre (clear of the "
+        "handle), on its −y end (side < 0.5) or +y end; the base stands `standoff` metres in "
+        "front (+x) of the grasp point, facing −x."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") < HOLD_CLOSURE[0]
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        grip, side, standoff = (float(v) for v in self.params)
+        pos, rot = wiper_pose(state, self.objects[1])
+        if pos[2] < TABLE_Z:
+            raise SkillFailure("the wiper is not on the island")
+        hdir = handle_direction(rot)
+        along = np.array([-hdir[1], hdir[0], 0.0])  # the head's length, horizontal
+        grasp = pos + rot @ np.array([HEAD_X, 0.0, 0.0])
+        grasp = grasp + along * (grip if side >= 0.5 else -grip)
+        # The pads span the head's whole height (3 cm) and clear the top by 3 mm: the most
+        # margin against the slow slip of a held object under MuJoCo's soft friction.
+        grasp[2] = TABLE_Z + GRASP_ABOVE_TABLE
+        quat = frame_quat([0.0, 0.0, -1.0], hdir)
+        segs: list[SegmentSource] = [*self.retract(0.0)]
+        segs.append(Segment(base=(float(grasp[0]) + standoff, float(grasp[1]), math.pi),
+                            max_steps=100))  # fmt: skip
+
+        def reach(st: ObjectCentricState) -> list[SegmentSource]:
+            above = ik(grasp + np.array([0.0, 0.0, 0.08]), quat, base_pose(st, self.robot),
+                       _SEED_DOWN)  # fmt: skip
+            line = lambda s: pose_line(s, self.robot, grasp, quat, 0.0)  # noqa: E731
+            return [*joint_moves(arm_joints(st, self.robot), above, 0.0), line]
+
+        def turn(st: ObjectCentricState) -> list[Segment]:
+            # Turn the wiper (about the pinch point) as every sweep pass carries it, handle
+            # trailing: done once here instead of in every sampled pass.
+            p, r = pinch_pose(base_pose(st, self.robot), arm_joints(st, self.robot))
+            rz = trailing_turn(wiper_pose(st, self.objects[1])[1])
+            return pose_line(st, self.robot, p, matrix_to_quat_xyzw(rz @ r), 1.0,
+                             turn_spacing=0.3, arm_tol=0.08, final_tol=0.03)  # fmt: skip
+
+        segs += [reach, Segment(gripper=1.0, min_steps=8)]
+        segs.append(lambda st: pose_line(st, self.robot, grasp + np.array([0.0, 0.0, LIFT]),
+                                         quat, 1.0))  # fmt: skip
+        segs.append(turn)
+        return segs
+
+
+class SweepController(_Controller):
+    """One sweep pass over a band of the island top. Objects: ``(robot, wiper, drawer, screw)``."""
+
+    params_space = spaces.Box(
+        np.array([-0.06, 0.005, 0.035, -0.02]),
+        np.array([0.06, 0.015, 0.05, -0.005]),
+        dtype=np.float64,
+    )
+    params_doc = (
+        "(offset, speed, gap, clearance): the head's centre runs along y = (target screw's y) + "
+        "`offset` (m); it starts `gap` metres behind (−x of) the rearmost screw of its 24 cm band "
+        "and is pushed over the front edge at `speed` metres per action by the base; the head's "
+        "lower edge is aimed `clearance` metres above the top (negative: pressed onto it, so "
+        "that it does not ride over the screws)."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        lo, hi = HOLD_CLOSURE
+        return lo <= state.get(self.robot, "pos_gripper") <= hi
+
+    def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
+        """Uniform, except the offset: among random candidates, one whose pass covers the most
+        screws still on the top with the inner 16 cm of the head (screws near its ends tend to
+        slide off them), so that one pass drops as many as it can."""
+        params = super().sample_parameters(state, rng)
+        ty = state.get(self.objects[3], "y")
+        ys = np.array([state.get(o, "y") for o in state.get_objects(MOVABLE_TYPE)
+                       if o.name.startswith("screw") and state.get(o, "z") > TABLE_Z])  # fmt: skip
+        lo, hi = float(self.params_space.low[0]), float(self.params_space.high[0])
+        cands = rng.uniform(lo, hi, 16)
+        cover = (np.abs(ys[None, :] - (ty + cands[:, None])) <= 0.08).sum(axis=1)
+        params[0] = float(rng.choice(cands[cover == cover.max()]))
+        return params
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        offset, speed, gap, clearance = (float(v) for v in self.params)
+        robot, wiper, drawer, screw = self.objects
+        screws = [o for o in state.get_objects(MOVABLE_TYPE) if o.name.startswith("screw")]
+        on_top = [o for o in screws if state.get(o, "z") > TABLE_Z]
+        if screw not in on_top:
+            raise SkillFailure(f"{screw.name} is not on the island top")
+        yc = state.get(screw, "y") + offset
+        band = [o for o in on_top if abs(state.get(o, "y") - yc) < 0.12]
+        x0 = min(state.get(o, "x") for o in band) - gap  # the head's centre at the start
+        x1 = ISLAND_FRONT + 0.055  # ... and at the end: the whole head past the edge
+        # Stand clear of the open drawer's handle; the arm reaches 0.745 m ahead of the base.
+        reach = 0.76
+        handle_x = HANDLE[0] + state.get(drawer, "pos") + 0.01
+        bx0 = max(x0 + reach, handle_x + 0.2 + 0.02)
+        x0 = bx0 - reach
+        segs: list[SegmentSource] = []
+
+        def lift(st: ObjectCentricState) -> list[Segment]:
+            p = self.pinch(st)
+            if p[2] > TABLE_Z + LIFT - 0.01:
+                return []
+            return pose_line(st, robot, p + np.array([0.0, 0.0, LIFT]), None, 1.0)
+
+        segs.append(lift)
+        segs.append(Segment(base=(bx0, yc, math.pi), gripper=1.0, max_steps=100,
+                            base_speed=(0.05, 0.1)))  # fmt: skip
+
+        def lower(st: ObjectCentricState) -> list[SegmentSource]:
+            pos, rot = wiper_pose(st, wiper)
+            rz = trailing_turn(rot)  # about the identity when PickWiper already turned it
+            b = base_pose(st, robot)
+            p, r = pinch_pose(b, arm_joints(st, robot))
+            head = pos + rot @ np.array([HEAD_X, 0.0, 0.0])
+            off = rz @ (head - p)  # head relative to the pinch point once turned
+            head_bottom = float(off[2]) - HEAD_HALF_HEIGHT
+            target = np.array([x0 - off[0], yc - off[1], TABLE_Z + clearance - head_bottom])
+            quat = matrix_to_quat_xyzw(rz @ r)
+            above = target + np.array([0.0, 0.0, 0.05])
+            # The head may touch the top before the pinch point arrives: accept a small error.
+            down = lambda s2: pose_line(s2, robot, target, None, 1.0, final_tol=0.03)  # noqa: E731
+            return [*pose_line(st, robot, above, np.asarray(quat), 1.0), down]
+
+        def push(st: ObjectCentricState) -> list[Segment]:
+            b = base_pose(st, robot)
+            return [Segment(base=(float(b[0]) + (x1 - x0), float(b[1]), float(b[2])),
+                            gripper=1.0, max_steps=100, base_speed=(speed, 0.05))]  # fmt: skip
+
+        segs += [lower, push, lift]
+        return segs
+
+
+# -- the model ------------------------------------------------------------------------------------
+
+
+def create_model(env: ObjectCentricEnv) -> PlanningModel:
+    """The SweepIntoDrawer3D planning model (any number of screws)."""
+    objs: dict[str, Object] = env.objects  # type: ignore[attr-defined]
+    robot, drawer, wiper = objs["robot"], objs[DRAWER], objs[WIPER]
+    screws = sorted((o for n, o in objs.items() if n.startswith("screw_")), key=lambda o: o.name)
+    goal_keys = {s: f"on({s.name}, {GOAL_REGION})" for s in screws}
+
+    DrawerOpen = Predicate("DrawerOpen", (DRAWER_TYPE,))
+    DrawerClosed = Predicate("DrawerClosed", (DRAWER_TYPE,))
+    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
+    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    InDrawer = Predicate("InDrawer", (MOVABLE_TYPE,))
+    Lost = Predicate("Lost", (MOVABLE_TYPE,))
+
+    def holding(state: ObjectCentricState) -> bool:
+        lo, hi = HOLD_CLOSURE
+        if not lo <= state.get(robot, "pos_gripper") <= hi:
+            return False
+        pinch = pinch_pose(base_pose(state, robot), arm_joints(state, robot))[0]
+        pos, rot = wiper_pose(state, wiper)
+        # Distance from the pinch point to the head's axis segment (local y ∈ [-0.1, 0.1]).
+        a = pos + rot @ np.array([HEAD_X, -0.1, 0.0])
+        b = pos + rot @ np.array([HEAD_X, 0.1, 0.0])
+        t = float(np.clip((pinch - a) @ (b - a) / float((b - a) @ (b - a)), 0.0, 1.0))
+        return float(np.linalg.norm(pinch - (a + t * (b - a)))) < 0.05
+
+    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        atoms: set[GroundAtom] = set()
+        if state.get(drawer, "pos") > OPEN_POS:
+            atoms.add(DrawerOpen.ground([drawer]))
+        else:
+            atoms.add(DrawerClosed.ground([drawer]))
+        if holding(state):
+            atoms.add(Holding.ground([robot, wiper]))
+        else:
+            atoms.add(HandEmpty.ground([robot]))
+        inside = env.goal_atoms(state)  # type: ignore[attr-defined]
+        for s in screws:
+            if inside[goal_keys[s]]:
+                atoms.add(InDrawer.ground([s]))
+            elif state.get(s, "z") < LOST_Z:
+                atoms.add(Lost.ground([s]))
+        return frozenset(atoms)
+
+    r = Variable("?robot", ROBOT_TYPE)
+    d = Variable("?drawer", DRAWER_TYPE)
+    w = Variable("?wiper", MOVABLE_TYPE)
+    s = Variable("?screw", MOVABLE_TYPE)
+    open_drawer = LiftedOperator(
+        "OpenDrawer",
+        (r, d),
+        frozenset({HandEmpty.lift([r]), DrawerClosed.lift([d])}),
+        frozenset({DrawerOpen.lift([d])}),
+        frozenset({DrawerClosed.lift([d])}),
+    )
+    pick_wiper = LiftedOperator(
+        "PickWiper",
+        (r, w, d),
+        frozenset({HandEmpty.lift([r]), DrawerOpen.lift([d])}),
+        frozenset({Holding.lift([r, w])}),
+        frozenset({HandEmpty.lift([r])}),
+    )
+    sweep = LiftedOperator(
+        "Sweep",
+        (r, w, d, s),
+        frozenset({Holding.lift([r, w]), DrawerOpen.lift([d])}),
+        frozenset({InDrawer.lift([s])}),
+        frozenset(),
+    )
+
+    def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
+        del state
+        if op.parent is open_drawer:
+            return True
+        if op.objects[1] != wiper:
+            return False
+        return op.parent is pick_wiper or op.objects[3] in screws
+
+    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        del state
+        return frozenset(InDrawer.ground([x]) for x in screws)
+
+    return PlanningModel(
+        name="sweep_into_drawer3d",
+        env=env,
+        types=(ROBOT_TYPE, DRAWER_TYPE, MOVABLE_TYPE),
+        predicates=(DrawerOpen, DrawerClosed, HandEmpty, Holding, InDrawer, Lost),
+        skills=(
+            Skill(open_drawer, OpenDrawerController, env),
+            Skill(pick_wiper, PickWiperController, env),
+            Skill(sweep, SweepController, env),
+        ),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        objects_fn=lambda state: [robot, drawer, wiper, *screws],
+        max_skill_horizon=300,
+        max_episode_steps=env.spec.max_episode_steps if env.spec is not None else None,
+        operator_filter=keep,
+        monotone_predicates=frozenset({"InDrawer"}),
+    )
+
+
+__all__: Sequence[str] = [
+    "OpenDrawerController",
+    "PickWiperController",
+    "SweepController",
+    "create_model",
+]
