@@ -29,6 +29,12 @@ FloatArray = NDArray[np.float64]
 ValidityFn = Callable[[FloatArray], bool]
 
 
+def params_seed(params: FloatArray, salt: int) -> int:
+    """A planner seed that is a function of a skill's parameters (and a salt), so that the same
+    sample always plans the same path."""
+    return (int(1e6 * float(np.sum(params * np.arange(1, len(params) + 1)))) + salt) % (2**31 - 1)
+
+
 def wrap_angle(theta: float) -> float:
     """An angle wrapped to [−π, π)."""
     return (theta + math.pi) % (2 * math.pi) - math.pi

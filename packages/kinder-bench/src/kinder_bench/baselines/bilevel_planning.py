@@ -408,6 +408,21 @@ def plan_episode(
     return plan, planner.stats
 
 
+def plan_reaches_goal(
+    env: ObjectCentricEnv, seed: int, args: BilevelPlanningArgs | None = None
+) -> tuple[bool, PlanningStats]:
+    """Reset ``env`` with ``seed``, plan once (seeded alike) and replay the plan through
+    ``env.transition``: whether a plan was found and reaches the env's goal (for tests)."""
+    x0, _ = env.reset(seed=seed)
+    plan, stats = plan_episode(env, x0, args, seed=seed)
+    if plan is None:
+        return False, stats
+    state, terminated = x0, False
+    for action in plan.actions:
+        state, _, terminated = env.transition(state, action)
+    return terminated, stats
+
+
 __all__: Sequence[str] = [
     "BilevelPlanner",
     "BilevelPlanningAgent",
@@ -416,5 +431,6 @@ __all__: Sequence[str] = [
     "RefinedPlan",
     "model_for",
     "plan_episode",
+    "plan_reaches_goal",
     "use_model",
 ]

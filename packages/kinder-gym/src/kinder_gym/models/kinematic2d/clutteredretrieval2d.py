@@ -101,9 +101,10 @@ from kinder_gym.models.kinematic2d.crv import (
     CRVCollisionChecker,
     CRVController,
     Waypoint,
+    checked_waypoints,
     robot_config,
 )
-from kinder_gym.motion_planning import FloatArray, interpolate_path, plan_se2
+from kinder_gym.motion_planning import FloatArray, params_seed, plan_se2
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
@@ -316,10 +317,6 @@ def _held(env: ObjectCentricEnv, data: FloatArray) -> list[Object]:
     return env.world.held_objects(data)  # type: ignore[attr-defined, no-any-return]
 
 
-def _seed(params: FloatArray, salt: int) -> int:
-    return (int(1e6 * float(np.sum(params * np.arange(1, len(params) + 1)))) + salt) % (2**31 - 1)
-
-
 def _after(state: ObjectCentricState, data: FloatArray) -> ObjectCentricState:
     out = state.copy()
     out.data[:] = data
@@ -399,22 +396,16 @@ class _MoveController(CRVController):
             checker,
             ((xmin + retracted, xmax - retracted), (ymin + retracted, ymax - retracted)),
             max_step=(0.01, 0.01, math.pi / 64),
-            seed=_seed(self.params, len(name)),
+            seed=params_seed(self.params, len(name)),
             timeout=RRT_TIMEOUT,
             attempts=RRT_ATTEMPTS,
         )
         if path3 is None:
             raise SkillFailure(f"{name}: no collision-free base path to {pre.round(3)}")
         path = [q0, start, *(np.array([*q[:3], retracted]) for q in path3[1:]), goal]
-        # The env checks collisions at the end of each step; so do we, at the follower's steps.
         high = np.asarray(env.action_space.high, dtype=np.float64)[:4]
-        for q in interpolate_path(path, high, wrap_dims=(2,))[1:]:
-            if not checker(q):
-                raise SkillFailure(f"{name}: an execution step collides at {q.round(3)}")
-        return [
-            Waypoint(float(q[0]), float(q[1]), float(q[2]), float(q[3]), self.vacuum)
-            for q in path[1:]
-        ]
+        failure = f"{name}: an execution step collides"
+        return checked_waypoints(checker, path, high, self.vacuum, failure)
 
 
 class _PickController(_MoveController):

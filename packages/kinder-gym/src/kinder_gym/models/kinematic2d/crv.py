@@ -32,7 +32,7 @@ from kinder_garden2d.geometry import (
 )
 from kinder_garden2d.kinematic2d.crv import Bodies, KinematicWorld, robot_geometry
 from kinder_garden2d.kinematic2d.object_types import ZOrder
-from kinder_gym.motion_planning import FloatArray, plan_se2
+from kinder_gym.motion_planning import FloatArray, interpolate_path, plan_se2
 from kinder_gym.skills import Controller, SkillFailure
 
 #: Indices of the robot's features in its feature vector.
@@ -59,6 +59,24 @@ def robot_config(state: ObjectCentricState, robot: Object) -> FloatArray:
     """``[x, y, theta, arm_joint]`` of the robot."""
     v = state[robot]
     return np.array([v[X], v[Y], v[THETA], v[ARM_JOINT]])
+
+
+def checked_waypoints(
+    checker: CRVCollisionChecker,
+    configs: Sequence[FloatArray],
+    max_step: FloatArray,
+    vacuum: float,
+    failure: str,
+) -> list[Waypoint]:
+    """Waypoints through ``configs`` (``[x, y, theta, arm]``, the first being where the robot
+    starts), after checking every pose the follower will step through (the env checks collisions
+    at the end of each step; so do we). A collision raises ``SkillFailure("<failure> at q")``."""
+    for q in interpolate_path(list(configs), max_step, wrap_dims=(2,))[1:]:
+        if not checker(q):
+            raise SkillFailure(f"{failure} at {q.round(3)}")
+    return [
+        Waypoint(float(q[0]), float(q[1]), float(q[2]), float(q[3]), vacuum) for q in configs[1:]
+    ]
 
 
 def config_delta4(a: FloatArray, b: FloatArray) -> FloatArray:

@@ -22,11 +22,12 @@ from kinder_gym.models.kinematic2d.crv import (
     GRIPPER_WIDTH,
     CRVCollisionChecker,
     Waypoint,
+    checked_waypoints,
     config_delta4,
     plan_base_path,
     robot_config,
 )
-from kinder_gym.motion_planning import FloatArray, interpolate_path
+from kinder_gym.motion_planning import FloatArray
 from kinder_gym.skills import Controller, SkillFailure
 
 #: Wall-clock seconds per RRT-Connect attempt (two attempts per query). Free paths in these
@@ -164,13 +165,8 @@ class ScriptController(Controller):
     ) -> list[ScriptItem]:
         """Waypoints through ``configs`` (``[x, y, theta, arm]``, the first being where the
         robot starts), after checking every pose the follower will step through."""
-        for q in interpolate_path(list(configs), self._max, wrap_dims=(2,))[1:]:
-            if not checker(q):
-                raise SkillFailure(f"{type(self).__name__}: {what} collides at {q.round(3)}")
-        return [
-            Waypoint(float(q[0]), float(q[1]), float(q[2]), float(q[3]), vacuum)
-            for q in configs[1:]
-        ]
+        failure = f"{type(self).__name__}: {what} collides"
+        return list(checked_waypoints(checker, configs, self._max, vacuum, failure))
 
     def base_path(
         self,

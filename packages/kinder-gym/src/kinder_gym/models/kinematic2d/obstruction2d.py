@@ -73,9 +73,10 @@ from kinder_gym.models.kinematic2d.crv import (
     CRVCollisionChecker,
     CRVController,
     Waypoint,
+    checked_waypoints,
     robot_config,
 )
-from kinder_gym.motion_planning import FloatArray, interpolate_path
+from kinder_gym.motion_planning import FloatArray
 from kinder_gym.operators import GroundOperator, LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
@@ -283,15 +284,9 @@ class _TopDownController(CRVController):
             np.array([goal[0], SAFE_Y, goal[2], goal[3]]),
             goal,
         ]
-        # The env checks collisions at the end of each step; so do we, at the follower's steps.
         high = np.asarray(self.context.action_space.high, dtype=np.float64)[:4]
-        for q in interpolate_path(path, high, wrap_dims=(2,))[1:]:
-            if not checker(q):
-                raise SkillFailure(f"{name}: an execution step collides at {q.round(3)}")
-        return [
-            Waypoint(float(q[0]), float(q[1]), float(q[2]), float(q[3]), self.vacuum)
-            for q in path[1:]
-        ]
+        failure = f"{name}: an execution step collides"
+        return checked_waypoints(checker, path, high, self.vacuum, failure)
 
 
 class PickController(_TopDownController):

@@ -59,7 +59,7 @@ from kinder_gym.models.kinematic2d.crv import (
     robot_config,
 )
 from kinder_gym.models.kinematic2d.motion2d import checked_waypoints, world_sampling_bounds
-from kinder_gym.motion_planning import FloatArray
+from kinder_gym.motion_planning import FloatArray, params_seed
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
@@ -158,10 +158,6 @@ def _feasible_interval(
     return (t0, t1) if t0 <= t1 else None
 
 
-def _seed(params: FloatArray, salt: int) -> int:
-    return (int(1e6 * float(np.sum(params * np.arange(1, len(params) + 1)))) + salt) % (2**31 - 1)
-
-
 class _RejectionSampled(CRVController):
     """Samples parameters uniformly, rejecting those whose goal configuration is invalid."""
 
@@ -207,7 +203,7 @@ class _RejectionSampled(CRVController):
         checker.arm = float(goal[3])
         (x0, x1), (y0, y1) = _base_limits(self.context, state, robot)
         path = plan_base_path(
-            checker, start, goal, ((x0, x1), (y0, y1)), seed=_seed(self.params, salt)
+            checker, start, goal, ((x0, x1), (y0, y1)), seed=params_seed(self.params, salt)
         )
         return waypoints + checked_waypoints(checker, path, float(goal[3]), self.context, vacuum)
 

@@ -49,7 +49,7 @@ from kinder_gym.models.kinematic3d.tidybot import (
     top_down_quat,
     wrap,
 )
-from kinder_gym.motion_planning import FloatArray, segment_valid
+from kinder_gym.motion_planning import FloatArray, params_seed, segment_valid
 from kinder_gym.operators import GroundOperator, LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
@@ -62,12 +62,6 @@ TABLE_Z = 0.3
 def _yaw_of(q: FloatArray) -> float:
     m = quat_to_matrix(q)
     return math.atan2(float(m[1, 0]), float(m[0, 0]))
-
-
-def params_seed(params: FloatArray, salt: int) -> int:
-    """A motion-planner seed that is a function of a skill's parameters (and a salt), so that
-    the same sample always plans the same path."""
-    return (int(1e6 * float(np.sum(params * np.arange(1, len(params) + 1)))) + salt) % (2**31 - 1)
 
 
 class ReachController(TidyBotController):
