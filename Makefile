@@ -8,7 +8,7 @@ export SDL_VIDEODRIVER ?= dummy
 export MUJOCO_GL ?= egl
 PYTEST_ARGS ?=
 
-.PHONY: help bootstrap sync demo test test-all lint typecheck fmt bench docs clean
+.PHONY: help bootstrap sync system-deps demo test test-all lint typecheck fmt bench docs clean
 
 help:  ## List the targets.
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
@@ -17,8 +17,11 @@ bootstrap:  ## Install uv if it is missing (pip, then pip --user).
 	@command -v uv >/dev/null 2>&1 || python3 -m uv --version >/dev/null 2>&1 || \
 	  python3 -m pip install --quiet uv || python3 -m pip install --quiet --user uv
 
-sync: bootstrap  ## Create .venv from uv.lock (all packages, dev tools; no torch/CUDA).
-	$(UV) sync --locked --all-packages
+sync: bootstrap  ## Create .venv from uv.lock: all packages with every extra (torch, SB3, lerobot).
+	$(UV) sync --locked --all-packages --all-extras
+
+system-deps:  ## Debian packages (ffmpeg, chromium) and npm packages the tests need.
+	bash tools/install_system_deps.sh
 
 demo: sync  ## The main job: a small benchmark run with a results table and a GIF.
 	$(UV) run --no-sync kinder demo

@@ -14,6 +14,7 @@ import kinder_core
 from kinder_bench.agents import AGENTS, agent_class, describe_args
 from kinder_bench.executors import EXECUTORS
 from kinder_bench.recording import VIDEO_FORMATS
+from kinder_bench.training.cli import train_app
 
 app = typer.Typer(
     name="kinder",
@@ -24,6 +25,7 @@ app = typer.Typer(
 )
 bench_app = typer.Typer(help="Run benchmarks and report their results.", no_args_is_help=True)
 app.add_typer(bench_app, name="bench")
+app.add_typer(train_app, name="train")
 
 ImportOpt = Annotated[
     list[str] | None,
