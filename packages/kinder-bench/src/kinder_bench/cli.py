@@ -12,6 +12,7 @@ import typer
 
 import kinder_core
 from kinder_bench.agents import AGENTS, agent_class, describe_args
+from kinder_bench.envs import short_id
 from kinder_bench.executors import EXECUTORS
 from kinder_bench.recording import VIDEO_FORMATS
 from kinder_bench.training.cli import train_app
@@ -243,7 +244,13 @@ def bench_run(
         typer.Option(help="'paper': the paper's eight benchmark envs (those installed)."),
     ] = None,
     agent: Annotated[
-        list[str] | None, typer.Option("--agent", "-a", help="Agent name. Repeatable.")
+        list[str] | None,
+        typer.Option(
+            "--agent",
+            "-a",
+            help="Agent name, or 'all': every registered agent that can run here (the others "
+            "are listed with the reason). Repeatable.",
+        ),
     ] = None,
     args: ArgOpt = None,
     seeds: Annotated[str, typer.Option(help="Run seeds: '0-4' or '0,1,2'.")] = "0-4",
@@ -270,6 +277,9 @@ def bench_run(
     record_episodes: Annotated[
         int, typer.Option(help="Record the first N episodes of each seed (-1: all).")
     ] = 1,
+    record_stride: Annotated[
+        int, typer.Option(help="Record every N-th step (and the first and last).")
+    ] = 1,
     progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
     report: Annotated[bool, typer.Option(help="Write and print the report at the end.")] = True,
     imports: ImportOpt = None,
@@ -281,16 +291,11 @@ def bench_run(
     envs_ = list(env or []) + _suite_envs(suite)
     if not envs_:
         fail("give at least one --env (or --suite paper)")
-    agents_ = agent or ["random"]
     if executor not in EXECUTORS:
         fail(f"--executor {executor!r}: expected one of {list(EXECUTORS)}")
-    per_agent = parse_agent_args(args, agents_)
+    pairs = _runnable(envs_, agent or ["random"], args)
     seed_list = parse_seeds(seeds)
-    runs = [
-        RunConfig(e, a, per_agent[a], seed_list, episodes, max_steps)
-        for e in envs_
-        for a in agents_
-    ]
+    runs = [RunConfig(e, a, a_args, seed_list, episodes, max_steps) for e, a, a_args in pairs]
     with user_errors():
         outcome = run_benchmark(
             runs,
@@ -302,6 +307,7 @@ def bench_run(
             record_episodes=None if record_episodes < 0 else record_episodes,
             imports=mods,
             progress=progress,
+            record_stride=record_stride,
         )
     typer.echo(
         f"{out}: ran {outcome.num_ran} episodes, skipped {outcome.num_skipped} already done",
@@ -309,6 +315,45 @@ def bench_run(
     )
     if report:
         _report([out], out, plot=True)
+
+
+def _runnable(
+    envs_: list[str], agents_: list[str], args: list[str] | None
+) -> list[tuple[str, str, dict[str, str]]]:
+    """The (env, agent, agent args) pairs to run. ``all`` stands for every registered agent;
+    pairs whose agent cannot run here are skipped with their reason when they came from ``all``,
+    and are an error when the agent was named."""
+    from kinder_bench.agents import unavailable_reason
+    from kinder_bench.envs import resolve_env_id
+
+    named = [a for a in agents_ if a != "all"]
+    expanded = list(dict.fromkeys(named + (list(AGENTS) if "all" in agents_ else [])))
+    loadable = []
+    for a in expanded:
+        try:
+            agent_class(a)
+        except ValueError as err:  # e.g. a missing optional dependency
+            if a in named:
+                fail(str(err))
+            typer.echo(f"skipping agent {a}: {err}", err=True)
+            continue
+        loadable.append(a)
+    per_agent = parse_agent_args(args, loadable)
+    pairs = []
+    for a in loadable:
+        for e in envs_:
+            with user_errors():
+                env_id = resolve_env_id(e)
+            why = unavailable_reason(a, env_id, per_agent[a])
+            if why is None:
+                pairs.append((e, a, per_agent[a]))
+            elif a in named:
+                fail(f"agent {a} cannot run on {env_id} here: {why}")
+            else:
+                typer.echo(f"skipping {a} on {short_id(env_id)}: {why}", err=True)
+    if not pairs:
+        fail("no agent can run on these envs here (see the reasons above)")
+    return pairs
 
 
 def _suite_envs(suite: str | None) -> list[str]:
@@ -326,11 +371,13 @@ def _suite_envs(suite: str | None) -> list[str]:
     return [e for e in PAPER_ENVS if e in known]
 
 
-def _report(run_dirs: list[Path], out: Path | None, plot: bool) -> None:
+def _report(
+    run_dirs: list[Path], out: Path | None, plot: bool, paper: bool = False, html: bool = False
+) -> None:
     from kinder_bench.report import write_report
 
     with user_errors():
-        md, paths = write_report(run_dirs, out, plot=plot)
+        md, paths = write_report(run_dirs, out, plot=plot, paper=paper, html=html)
     typer.echo(md)
     typer.echo("wrote " + ", ".join(str(p) for p in paths.values()), err=True)
 
@@ -342,9 +389,19 @@ def bench_report(
         Path | None, typer.Option(help="Where to write the report (default: the first run dir).")
     ] = None,
     plot: Annotated[bool, typer.Option(help="Also write success.png.")] = True,
+    paper: Annotated[
+        bool,
+        typer.Option(
+            help="Print and write the paper's Table II layout with the paper's value beside "
+            "ours in every cell (paper_table.md, paper_comparison.csv)."
+        ),
+    ] = False,
+    html: Annotated[
+        bool, typer.Option(help="Also write report.html, one self-contained page.")
+    ] = False,
 ) -> None:
     """Aggregate run directories: print the SR / Rwd / Inf-Time table, write CSV and a plot."""
-    _report(run_dirs, out, plot)
+    _report(run_dirs, out, plot, paper=paper, html=html)
 
 
 @app.command()

@@ -10,11 +10,13 @@ from typing import Any
 
 from kinder_bench.envs import short_id
 from kinder_bench.metrics import Stat, Summary, aggregate
-from kinder_bench.results import load_records
+from kinder_bench.results import load_config, load_records
 
 TABLE_FILE = "table.md"
 CSV_FILE = "summary.csv"
 PLOT_FILE = "success.png"
+PAPER_TABLE_FILE = "paper_table.md"
+PAPER_CSV_FILE = "paper_comparison.csv"
 
 
 def dedupe(records: Iterable[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
@@ -104,11 +106,24 @@ CSV_COLUMNS = (
     "steps_std",
     "env_time_mean",
     "env_time_std",
+    "command",
 )
 
 
-def csv_table(summaries: Sequence[Summary]) -> str:
-    """One row per env × method (empty cells where a value is undefined)."""
+def run_commands(run_dirs: Sequence[Path | str]) -> dict[str, str]:
+    """Run id → the command recorded for it in the run directories' ``config.json``."""
+    out: dict[str, str] = {}
+    for d in run_dirs:
+        for run in load_config(d).get("runs", []):
+            if run.get("command"):
+                out[run["run_id"]] = run["command"]
+    return out
+
+
+def csv_table(summaries: Sequence[Summary], commands: Mapping[str, str] | None = None) -> str:
+    """One row per env × method (empty cells where a value is undefined); ``command``: the
+    command recorded for the run (``commands``: run id → command)."""
+    commands = commands or {}
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
@@ -138,6 +153,7 @@ def csv_table(summaries: Sequence[Summary]) -> str:
                 v(s.steps.std),
                 v(s.env_time.mean),
                 v(s.env_time.std),
+                commands.get(s.run_id, ""),
             ]
         )
     return buf.getvalue()
@@ -180,19 +196,59 @@ def plot_success(summaries: Sequence[Summary], path: Path | str) -> Path:
 
 
 def write_report(
-    run_dirs: Sequence[Path | str], out_dir: Path | str | None = None, plot: bool = True
+    run_dirs: Sequence[Path | str],
+    out_dir: Path | str | None = None,
+    plot: bool = True,
+    paper: bool = False,
+    html: bool = False,
+    title: str = "KinDERBench report",
+    note: str = "",
 ) -> tuple[str, dict[str, Path]]:
-    """Aggregate run directories; write ``table.md``, ``summary.csv`` and ``success.png`` to
-    ``out_dir`` (default: the first run directory). Returns the markdown and the paths."""
-    summaries = aggregate(load_run_dirs(run_dirs))
+    """Aggregate run directories and write the report to ``out_dir`` (default: the first run
+    directory): ``table.md``, ``summary.csv`` and (``plot``) ``success.png``; with ``paper`` the
+    paper comparison ``paper_table.md`` and ``paper_comparison.csv``
+    (:mod:`kinder_bench.paper`); with ``html`` the self-contained ``report.html``
+    (:mod:`kinder_bench.html_report`, with the not-run paper cells when ``paper``).
+
+    Returns the markdown (the paper comparison's when ``paper``, else the results table) and the
+    paths written.
+    """
+    records = load_run_dirs(run_dirs)
+    summaries = aggregate(records)
     if not summaries:
         raise ValueError(f"No results in {[str(d) for d in run_dirs]}")
     out = Path(out_dir if out_dir is not None else run_dirs[0])
     out.mkdir(parents=True, exist_ok=True)
+    commands = run_commands(run_dirs)
     md = markdown_table(summaries)
     paths = {"table": out / TABLE_FILE, "csv": out / CSV_FILE}
-    paths["table"].write_text(md)
-    paths["csv"].write_text(csv_table(summaries))
+    _write_text(paths["table"], md)
+    _write_text(paths["csv"], csv_table(summaries, commands))
     if plot:
         paths["plot"] = plot_success(summaries, out / PLOT_FILE)
+    comparison = None
+    if paper or html:
+        from kinder_bench.paper import compare, paper_csv, paper_markdown, results_from_summaries
+
+        results = results_from_summaries(summaries, commands)
+        if paper:
+            comparison = compare(results)
+            md = paper_markdown(comparison)
+            paths["paper_table"] = out / PAPER_TABLE_FILE
+            paths["paper_csv"] = out / PAPER_CSV_FILE
+            _write_text(paths["paper_table"], md)
+            _write_text(paths["paper_csv"], paper_csv(comparison))
+        if html:
+            from kinder_bench.html_report import HTML_FILE, RunDirInfo, render_html, write_html
+
+            dirs = [RunDirInfo(str(d), load_config(d)) for d in run_dirs]
+            page = render_html(results, records, dirs, comparison, title=title, note=note)
+            paths["html"] = write_html(out / HTML_FILE, page)
     return md, paths
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Write through a temporary file and a rename (readers never see half a file)."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(path)

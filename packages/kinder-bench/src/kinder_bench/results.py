@@ -11,6 +11,7 @@ import functools
 import json
 import os
 import platform
+import shlex
 import sys
 import warnings
 from importlib import metadata
@@ -95,6 +96,29 @@ def write_json(path: Path | str, obj: Any) -> None:
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     tmp.write_text(json.dumps(obj, indent=2, sort_keys=True) + "\n")
     os.replace(tmp, path)
+
+
+def invocation() -> str:
+    """This process's command line as a user would type it (``kinder bench run ...``,
+    ``python -m kinder_bench ...`` or ``python SCRIPT ...``), for the record of what ran."""
+    argv = list(sys.argv) or ["python"]
+    head = Path(argv[0])
+    if head.name == "kinder":
+        prog = ["kinder"]
+    elif head.name == "__main__.py":
+        prog = ["python", "-m", head.parent.name]
+    else:
+        prog = ["python", argv[0]]
+    return shlex.join(prog + argv[1:])
+
+
+def load_config(run_dir: Path | str) -> dict[str, Any]:
+    """A run directory's ``config.json`` (empty when it has none)."""
+    path = Path(run_dir) / CONFIG_FILE
+    if not path.exists():
+        return {}
+    config: dict[str, Any] = json.loads(path.read_text())
+    return config
 
 
 def environment_info() -> dict[str, Any]:

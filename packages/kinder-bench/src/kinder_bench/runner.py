@@ -41,6 +41,7 @@ from kinder_bench.results import (
     SCHEMA_VERSION,
     append_record,
     environment_info,
+    invocation,
     load_records,
     package_versions,
     write_json,
@@ -87,6 +88,8 @@ class EpisodeTask:
     agent_seed: int
     video_path: str | None = None
     imports: tuple[str, ...] = ()
+    video_stride: int = 1
+    """Record every this many steps (and the first and last frame)."""
 
     @property
     def key(self) -> tuple[str, int, int]:
@@ -171,8 +174,10 @@ def make_tasks(
     record: str | None = None,
     record_episodes: int | None = None,
     imports: tuple[str, ...] = (),
+    record_stride: int = 1,
 ) -> list[EpisodeTask]:
-    """The episodes of a run (recording the first ``record_episodes`` of each seed, or all)."""
+    """The episodes of a run (recording the first ``record_episodes`` of each seed, or all,
+    every ``record_stride`` steps)."""
     tasks = []
     for seed in run.seeds:
         for i, env_seed in enumerate(episode_seeds(seed, run.episodes)):
@@ -195,6 +200,7 @@ def make_tasks(
                     agent_seed=agent_seed(seed, i),
                     video_path=video,
                     imports=imports,
+                    video_stride=record_stride,
                 )
             )
     return tasks
@@ -265,7 +271,8 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
             env_time += time.perf_counter() - t0
             steps += 1
             total_reward += float(r)
-            if frames is not None:
+            last = terminated or truncated or steps >= task.max_steps
+            if frames is not None and (steps % task.video_stride == 0 or last):
                 frames.append(env.render())
             if terminated:
                 success = True
@@ -330,6 +337,8 @@ def run_benchmark(
     record_episodes: int | None = 1,
     imports: Sequence[str] = (),
     progress: bool = True,
+    command: str | None = None,
+    record_stride: int = 1,
 ) -> BenchOutcome:
     """Run (or resume) every episode of ``runs``, appending results to ``run_dir``.
 
@@ -342,9 +351,15 @@ def run_benchmark(
         address: A Ray cluster address (``--executor ray``); default: start a local instance.
         record: ``"gif"`` or ``"mp4"`` to record episodes to ``run_dir/videos``.
         record_episodes: Record the first this many episodes of each seed (None: all).
+        record_stride: Record every this many steps (and the first and last frame): long
+            episodes make shorter, faster videos and cost less rendering. 1: every step.
         imports: Modules imported first, here and in every worker (to register envs or agents).
         progress: Show a progress bar.
+        command: The command to record in ``config.json`` for these runs (reports show it);
+            default: this process's command line (:func:`~kinder_bench.results.invocation`).
     """
+    if record_stride < 1:
+        raise ValueError(f"record_stride must be >= 1, got {record_stride}")
     if record is not None and record not in VIDEO_FORMATS:
         raise ValueError(f"record must be one of {VIDEO_FORMATS} or None, got {record!r}")
     run_dir = Path(run_dir)
@@ -358,10 +373,12 @@ def run_benchmark(
     tasks = [
         t
         for run in resolved
-        for t in make_tasks(run, run_dir / "videos", record, record_episodes, imports)
+        for t in make_tasks(
+            run, run_dir / "videos", record, record_episodes, imports, record_stride
+        )
     ]
     pending = [t for t in tasks if t.key not in done]
-    _write_config(run_dir, resolved, imports)
+    _write_config(run_dir, resolved, imports, command or invocation())
 
     bar = _progress(len(pending), progress)
     successes = 0
@@ -385,7 +402,9 @@ def run_benchmark(
     )
 
 
-def _write_config(run_dir: Path, runs: Sequence[ResolvedRun], imports: tuple[str, ...]) -> None:
+def _write_config(
+    run_dir: Path, runs: Sequence[ResolvedRun], imports: tuple[str, ...], command: str
+) -> None:
     path = run_dir / CONFIG_FILE
     merged: dict[str, Any] = {}
     if path.exists():
@@ -393,6 +412,7 @@ def _write_config(run_dir: Path, runs: Sequence[ResolvedRun], imports: tuple[str
         merged = {r["run_id"]: r for r in old.get("runs", [])}
     for run in runs:
         entry = dataclasses.asdict(run)
+        entry["command"] = command  # the latest command that ran (or resumed) this run
         if run.run_id in merged:  # a rerun may add seeds or episodes to a run
             old_seeds = merged[run.run_id]["seeds"]
             entry["seeds"] = sorted({*old_seeds, *run.seeds})

@@ -64,6 +64,30 @@ def agent_class(name: str) -> type[Agent[Any]]:
     return cls
 
 
+def agent_name(agent: str) -> str:
+    """The registered name of an agent given by name or by its ``"module:Class"`` entry point
+    (an unregistered entry point is returned as it is)."""
+    if agent in AGENTS:
+        return agent
+    return next((name for name, ep in AGENTS.items() if ep == agent), agent)
+
+
+def unavailable_reason(
+    name: str, env_id: str, values: Mapping[str, Any] | None = None
+) -> str | None:
+    """Why agent ``name`` cannot run on ``env_id`` here with arguments ``values`` (defaults
+    for the rest), or None when it can: the agent's :meth:`Agent.unavailable`, or why it cannot
+    even be loaded (not registered, a missing optional dependency, invalid arguments)."""
+    if name not in AGENTS and ":" not in name:
+        return "needs an implementation: no agent of this name is registered here"
+    try:
+        cls = agent_class(name)
+        args = make_args(cls, values)
+    except ValueError as e:
+        return f"needs what loading it failed on: {e}"
+    return cls.unavailable(args, env_id)
+
+
 def _parse_value(raw: Any, annotation: Any, where: str) -> Any:
     if not isinstance(raw, str):
         return raw
@@ -170,10 +194,12 @@ __all__ = [
     "NoArgs",
     "RandomAgent",
     "agent_class",
+    "agent_name",
     "args_to_dict",
     "describe_args",
     "field_docs",
     "make_agent",
     "make_args",
     "register_agent",
+    "unavailable_reason",
 ]

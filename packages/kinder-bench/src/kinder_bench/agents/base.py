@@ -43,6 +43,24 @@ class Agent(abc.ABC, Generic[ArgsT]):
     frozen dataclass with a docstring per field, CleanRL style), and implement :meth:`act` (and
     :meth:`reset` when they keep per-episode state).
 
+    **Can it run here?** An agent that needs something this machine may lack (a trained
+    checkpoint, a model endpoint, a GPU, a planning model for the env's family) overrides the
+    classmethod :meth:`unavailable`, which returns ``None`` when the agent can run on an env with
+    given arguments, else one short line saying what is missing and how to supply it. The line
+    starts with "needs" so it reads well in tables, e.g.:
+
+    * ``"needs a checkpoint: --arg checkpoint=DIR (train one with `kinder train ppo`)"``
+    * ``"needs a model endpoint: --arg base_url=URL or OPENAI_BASE_URL"``
+    * ``"needs a CUDA GPU"``
+    * ``"needs a planning model for the Dynamo3D family"``
+
+    It must be cheap and side-effect free (look at files, environment variables, registries; do
+    not load weights, start processes or touch the network), because it is asked for every agent
+    × env pair: ``kinder bench run --agent all`` skips (and lists) the pairs with a reason and
+    ``kinder bench run --agent NAME`` refuses them with it, ``kinder bench report --paper`` writes
+    the reason in the cells that were not run, and ``kinder agents`` shows it. The default says
+    every agent can run everywhere.
+
     Args:
         env: The evaluation env (a registered id's Box view). Used for its spaces and its model.
         args: The agent's arguments (an instance of ``Args``).
@@ -68,6 +86,16 @@ class Agent(abc.ABC, Generic[ArgsT]):
                 f"{type(self).__name__} needs a Box action space, got {env.action_space}"
             )
         self.action_space: spaces.Box = env.action_space
+
+    @classmethod
+    def unavailable(cls, args: Any, env_id: str) -> str | None:
+        """Why this agent cannot run on ``env_id`` here with ``args`` (an ``Args``), or None.
+
+        See the class docstring: one short line starting with "needs", naming what is missing
+        and how to supply it; cheap and without side effects. The default: None (it can run).
+        """
+        del args, env_id
+        return None
 
     @property
     def model(self) -> ObjectCentricEnv:

@@ -34,6 +34,7 @@ Everything random comes from the agent's seeded RNG, so an episode's plan is rep
 from __future__ import annotations
 
 import dataclasses
+import re
 import time
 import weakref
 from collections.abc import Sequence
@@ -302,6 +303,8 @@ def _drop_noops(
     return out
 
 
+_FAMILY_RE = re.compile(r"^(?:kinder/)?(?P<family>[A-Za-z0-9]+)(?:-.+?)?(?:-v\d+)?$")
+
 # One model per env instance: building one can be costly and the runner reuses envs.
 _MODELS: weakref.WeakKeyDictionary[ObjectCentricEnv, PlanningModel] = weakref.WeakKeyDictionary()
 
@@ -325,6 +328,18 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
 
     name = "bilevel_planning"
     Args = BilevelPlanningArgs
+
+    @classmethod
+    def unavailable(cls, args: Any, env_id: str) -> str | None:
+        """Needs a planning model for the env's family (``kinder_gym.models.MODELS``)."""
+        del args
+        from kinder_gym.models import MODELS
+
+        m = _FAMILY_RE.match(env_id)
+        family = m.group("family") if m else env_id
+        if family in MODELS:
+            return None
+        return f"needs a planning model for the {family} family (kinder_gym.models)"
 
     def __init__(self, env: gymnasium.Env[Any, Any], args: BilevelPlanningArgs, seed: int) -> None:
         super().__init__(env, args, seed)

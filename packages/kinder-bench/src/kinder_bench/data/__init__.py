@@ -1,0 +1,1 @@
+"""Package data: the KinDER paper's results (``paper_results.csv``)."""
