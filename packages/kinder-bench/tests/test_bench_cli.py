@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 import kinder_core
 from kinder_bench.cli import app, parse_seeds
-from kinder_bench.demo import run_demo
+from kinder_bench.demo import DemoEnv, run_demo
 from kinder_bench.results import load_records
 
 runner = CliRunner()
@@ -145,18 +145,19 @@ def test_parse_seeds() -> None:
 
 def test_demo_on_a_small_budget(e2e: tuple[str, list[str]], tmp_path: Path) -> None:
     env_id, opts = e2e
+    mpc = {"horizon": 5, "num_rollouts": 2, "num_control_points": 2, "replan_interval": 5}
     result = run_demo(
         tmp_path / "demo",
         workers=1,
-        envs=[env_id],
+        envs=[DemoEnv(env_id, 1, mpc, max_steps=10)],
         seeds=(0,),
-        episodes=1,
-        max_steps=10,
         imports=tuple(opts[1:]),
         progress=False,
     )
     assert "| SR ↑ |" in result.table
-    assert sum(p.suffix == ".gif" for p in result.files) == 2  # random and MPC
+    assert sum(p.suffix == ".gif" for p in result.files) == 3  # BP, MPC and random
+    assert result.html is not None and result.html.name == "report.html"
+    assert (tmp_path / "demo" / "paper_table.md").exists()
 
 
 def test_console_script_runs() -> None:
@@ -172,5 +173,7 @@ def test_console_script_runs() -> None:
 @pytest.mark.slow
 def test_full_demo(tmp_path: Path) -> None:
     out = _ok(["demo", "--out", str(tmp_path / "demo"), "--no-progress"])
-    assert "Motion2D-p0" in out and "StickButton2D-b1" in out
-    assert len(list((tmp_path / "demo" / "videos").glob("*.gif"))) == 8
+    for env in ("Motion2D-p0", "StickButton2D-b1", "BaseMotion3D", "Shelf3D-o1"):
+        assert env in out
+    assert len(list((tmp_path / "demo" / "videos").glob("*.gif"))) == 24  # 4 envs x 3 x 2 seeds
+    assert "Where to look" in out and (tmp_path / "demo" / "report.html").exists()

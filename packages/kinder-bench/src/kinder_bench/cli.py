@@ -277,9 +277,13 @@ def bench_run(
     record_episodes: Annotated[
         int, typer.Option(help="Record the first N episodes of each seed (-1: all).")
     ] = 1,
-    record_stride: Annotated[
-        int, typer.Option(help="Record every N-th step (and the first and last).")
-    ] = 1,
+    record_frames: Annotated[
+        int | None,
+        typer.Option(
+            help="Record about N frames per episode at most: every ceil(max_steps/N)-th step "
+            "(default: every step)."
+        ),
+    ] = None,
     progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
     report: Annotated[bool, typer.Option(help="Write and print the report at the end.")] = True,
     imports: ImportOpt = None,
@@ -307,7 +311,7 @@ def bench_run(
             record_episodes=None if record_episodes < 0 else record_episodes,
             imports=mods,
             progress=progress,
-            record_stride=record_stride,
+            record_frames=record_frames,
         )
     typer.echo(
         f"{out}: ran {outcome.num_ran} episodes, skipped {outcome.num_skipped} already done",
@@ -410,19 +414,31 @@ def demo(
     workers: Annotated[int, typer.Option(help="Worker processes.")] = 2,
     progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
 ) -> None:
-    """A small benchmark: random and MPC on fast Kinematic2D envs; prints the table, writes GIFs."""
+    """The main job: bilevel planning next to MPC and random on four of the paper's envs (2D and
+    3D, about two minutes on 2 cores); prints the table, writes GIFs and an HTML report."""
     from kinder_bench.demo import run_demo
 
     with user_errors():
         result = run_demo(out, workers=workers, progress=progress)
     typer.echo(result.table)
-    for path in result.files:
-        typer.echo(f"wrote {path}")
+    videos = [p for p in result.files if p.suffix in (".gif", ".mp4")]
+    others = [p for p in result.files if p not in videos]
+    typer.echo(
+        f"wrote {len(videos)} episode GIFs to {out / 'videos'}/ and "
+        + ", ".join(p.name for p in others)
+        + f" to {out}/"
+    )
     n_envs = len(kinder_core.list_envs())
     typer.echo(
         f"demo finished in {result.seconds:.1f} s; {n_envs} environments are registered "
-        f"(`kinder envs` lists them)"
+        f"(`kinder envs` lists them)."
     )
+    typer.secho("Where to look:", bold=True)
+    if result.html is not None:
+        typer.echo(f"  {result.html.resolve()}  the report page: table, plot, GIFs, filters")
+    typer.echo(f"  {out / 'paper_table.md'}  our figures beside the paper's Table II")
+    typer.echo(f"  {out / 'videos'}/  one GIF per env, method and seed")
+    typer.echo("  `kinder bench run --suite paper --agent all` runs the paper's protocol.")
 
 
 def main() -> None:

@@ -127,7 +127,7 @@ _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0;color:#1d2330;
 background:#f6f7f9}
 header{background:#1f3a5f;color:#fff;padding:14px 24px}header h1{margin:0;font-size:20px}
-header p{margin:4px 0 0;opacity:.85;font-size:13px}
+header p{margin:4px 0 0;opacity:.85;font-size:13px}header code{background:none;color:#fff}
 main{padding:16px 24px;max-width:1400px}
 section{background:#fff;border:1px solid #dde1e7;border-radius:6px;padding:12px 16px;
 margin-bottom:16px}
@@ -219,18 +219,23 @@ _JS = """
   }
   function apply(){
     const envs = chosen('env'), meths = chosen('method');
+    const notrun = document.getElementById('show-notrun');
+    const showNotrun = notrun !== null && notrun.checked;
     boxes('[data-env]').forEach(e => {
       if (e.tagName === 'INPUT') return;
       const okEnv = envs.has(e.getAttribute('data-env'));
       const m = e.getAttribute('data-method');
       const okM = m === null || meths.has(m);
-      e.classList.toggle('hidden', !(okEnv && okM));
+      const okRun = showNotrun || !e.classList.contains('notrun');
+      e.classList.toggle('hidden', !(okEnv && okM && okRun));
     });
     const shown = boxes('#results tbody tr').filter(r => !r.classList.contains('hidden')).length;
     document.getElementById('shown').textContent = shown;
     plot(envs, meths);
   }
   boxes('input[data-filter]').forEach(b => b.addEventListener('change', apply));
+  const notrunBox = document.getElementById('show-notrun');
+  if (notrunBox !== null) notrunBox.addEventListener('change', apply);
   boxes('button[data-all]').forEach(b => b.addEventListener('click', () => {
     const on = b.getAttribute('data-on') === '1';
     boxes('input[data-filter="' + b.getAttribute('data-all') + '"]').forEach(x => x.checked = on);
@@ -293,6 +298,11 @@ def render_html(
                 f"{_e(label)}</label>"
             )
         w("</fieldset>")
+    if any(r["reason"] for r in rows):
+        w(
+            "<fieldset><legend>paper</legend><label><input type='checkbox' id='show-notrun'> "
+            "show the paper's cells we did not run (with the reason)</label></fieldset>"
+        )
     w("</div></section>")
 
     # Table.

@@ -20,6 +20,7 @@ import datetime
 import hashlib
 import importlib
 import json
+import math
 import sys
 import time
 import traceback
@@ -174,10 +175,11 @@ def make_tasks(
     record: str | None = None,
     record_episodes: int | None = None,
     imports: tuple[str, ...] = (),
-    record_stride: int = 1,
+    record_frames: int | None = None,
 ) -> list[EpisodeTask]:
-    """The episodes of a run (recording the first ``record_episodes`` of each seed, or all,
-    every ``record_stride`` steps)."""
+    """The episodes of a run (recording the first ``record_episodes`` of each seed, or all;
+    with ``record_frames``, every ``ceil(max_steps / record_frames)``-th step)."""
+    stride = 1 if record_frames is None else max(1, math.ceil(run.max_steps / record_frames))
     tasks = []
     for seed in run.seeds:
         for i, env_seed in enumerate(episode_seeds(seed, run.episodes)):
@@ -200,7 +202,7 @@ def make_tasks(
                     agent_seed=agent_seed(seed, i),
                     video_path=video,
                     imports=imports,
-                    video_stride=record_stride,
+                    video_stride=stride,
                 )
             )
     return tasks
@@ -338,7 +340,7 @@ def run_benchmark(
     imports: Sequence[str] = (),
     progress: bool = True,
     command: str | None = None,
-    record_stride: int = 1,
+    record_frames: int | None = None,
 ) -> BenchOutcome:
     """Run (or resume) every episode of ``runs``, appending results to ``run_dir``.
 
@@ -351,15 +353,16 @@ def run_benchmark(
         address: A Ray cluster address (``--executor ray``); default: start a local instance.
         record: ``"gif"`` or ``"mp4"`` to record episodes to ``run_dir/videos``.
         record_episodes: Record the first this many episodes of each seed (None: all).
-        record_stride: Record every this many steps (and the first and last frame): long
-            episodes make shorter, faster videos and cost less rendering. 1: every step.
+        record_frames: Record about this many frames of an episode at most: every
+            ``ceil(max_steps / record_frames)``-th step, and the first and last frame (long
+            episodes make shorter, faster videos and cost less rendering). None: every step.
         imports: Modules imported first, here and in every worker (to register envs or agents).
         progress: Show a progress bar.
         command: The command to record in ``config.json`` for these runs (reports show it);
             default: this process's command line (:func:`~kinder_bench.results.invocation`).
     """
-    if record_stride < 1:
-        raise ValueError(f"record_stride must be >= 1, got {record_stride}")
+    if record_frames is not None and record_frames < 1:
+        raise ValueError(f"record_frames must be >= 1 or None, got {record_frames}")
     if record is not None and record not in VIDEO_FORMATS:
         raise ValueError(f"record must be one of {VIDEO_FORMATS} or None, got {record!r}")
     run_dir = Path(run_dir)
@@ -374,7 +377,7 @@ def run_benchmark(
         t
         for run in resolved
         for t in make_tasks(
-            run, run_dir / "videos", record, record_episodes, imports, record_stride
+            run, run_dir / "videos", record, record_episodes, imports, record_frames
         )
     ]
     pending = [t for t in tasks if t.key not in done]

@@ -1,0 +1,246 @@
+"""The paper's data file, the paper comparison and the reports on a small fixture run."""
+
+from __future__ import annotations
+
+import csv
+import io
+import itertools
+import json
+from importlib import resources
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from kinder_bench.agents import AGENTS, agent_class, unavailable_reason
+from kinder_bench.cli import app
+from kinder_bench.paper import (
+    METRICS,
+    NOT_IN_RUNS,
+    compare,
+    load_paper,
+    paper_markdown,
+    parse_paper,
+    results_from_csv,
+)
+from kinder_bench.protocol import PAPER_ENVS
+from kinder_bench.report import write_report
+from kinder_bench.runner import RunConfig, run_benchmark
+
+MOTION = "kinder/Motion2D-p0-v0"
+PAPER_METHODS = [
+    "BP",
+    "LLMCon",
+    "VLMCon",
+    "LLMPlan",
+    "VLMPlan",
+    "MPC",
+    "VLA",
+    "GSC",
+    "DPES",
+    "DP",
+    "PPO",
+    "MBRL",
+    "SAC",
+]  # Table II's columns, in order
+
+
+def _data_text() -> str:
+    return resources.files("kinder_bench.data").joinpath("paper_results.csv").read_text()
+
+
+def test_paper_file_has_every_cell_exactly_once() -> None:
+    text = _data_text()
+    assert "Table II" in text and "tab:emp_all" in text and "tab:emp_std" in text
+    rows = list(csv.DictReader(line for line in text.splitlines() if not line.startswith("#")))
+    keys = [(r["env_id"], r["method"], r["metric"]) for r in rows]
+    expected = set(itertools.product(PAPER_ENVS, PAPER_METHODS, METRICS))
+    assert len(keys) == len(set(keys)) == len(expected) == 8 * 13 * 3
+    assert set(keys) == expected
+    paper = load_paper()
+    assert paper.envs == PAPER_ENVS and paper.methods == tuple(PAPER_METHODS)
+    assert len(set(paper.agents.values())) == 13
+    assert paper.agents["BP"] == "bilevel_planning" and paper.agents["MPC"] == "mpc"
+    # Spot checks against the paper, as printed.
+    bp = paper.cells[(MOTION, "BP", "SR")]
+    assert (bp.mean_text, bp.std_text, bp.mean, bp.std) == ("1.00", "0.000", 1.0, 0.0)
+    vla = paper.cells[("kinder/StickButton2D-b1-v0", "VLA", "SR")]
+    assert vla.text() == "0.53 ± 0.0676"
+    assert paper.cells[(MOTION, "SAC", "Rwd")].mean is None
+    assert paper.cells[("kinder/DynObstruction2D-o1-v0", "BP", "Rwd")].mean_text == "-68.62"
+
+
+def test_parse_paper_rejects_bad_files() -> None:
+    text = _data_text()
+    lines = text.splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith("kinder/"))
+    with pytest.raises(ValueError, match="given twice"):
+        parse_paper("\n".join([*lines, lines[first]]))
+    with pytest.raises(ValueError, match="cells are missing"):
+        parse_paper("\n".join(lines[:first] + lines[first + 1 :]))
+    bad = lines[first].replace(",SR,1.00,", ",SR,one,")
+    with pytest.raises(ValueError, match="neither a number"):
+        parse_paper("\n".join([*lines[:first], bad, *lines[first + 1 :]]))
+    bad = lines[first].replace(",SR,", ",Success,")
+    with pytest.raises(ValueError, match="metric 'Success'"):
+        parse_paper("\n".join([*lines[:first], bad, *lines[first + 1 :]]))
+    bad = lines[first].replace(",bilevel_planning,", ",bp,")
+    with pytest.raises(ValueError, match="maps to"):
+        parse_paper("\n".join([*lines[:first], bad, *lines[first + 1 :]]))
+    with pytest.raises(ValueError, match="header"):
+        parse_paper("a,b\n1,2\n")
+
+
+def test_agents_say_whether_they_can_run() -> None:
+    bp = agent_class("bilevel_planning")
+    assert bp.unavailable(bp.Args(), MOTION) is None
+    why = unavailable_reason("bilevel_planning", "kinder/Dynamo3D-o1-v0")
+    assert why is not None and why.startswith("needs") and "Dynamo3D" in why
+    assert unavailable_reason("mpc", MOTION) is None
+    assert "registered" in (unavailable_reason("no_such_agent", MOTION) or "")
+    assert "horizon" in (unavailable_reason("mpc", MOTION, {"horizon": "x"}) or "")
+
+
+@pytest.fixture(scope="module")
+def fixture_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A small real run on Motion2D-p0: BP (in the paper), random (not in the paper, recorded as
+    GIFs) and an agent that crashes every episode; MPC, StickButton2D etc. are missing cells."""
+    run_dir = tmp_path_factory.mktemp("fixture") / "run"
+    runs = [
+        RunConfig(MOTION, "bilevel_planning", {}, (0, 1), 1),
+        RunConfig(MOTION, "random", {}, (0, 1), 1, max_steps=8),
+        RunConfig(MOTION, "kinder_bench_toy:CrashingAgent", {}, (0,), 1, max_steps=8),
+    ]
+    run_benchmark(
+        runs,
+        run_dir,
+        executor="inline",
+        record="gif",
+        progress=False,
+        command="kinder bench run (test fixture)",
+    )
+    return run_dir
+
+
+def test_paper_report_on_a_fixture_run(fixture_run: Path, tmp_path: Path) -> None:
+    md, paths = write_report([fixture_run], tmp_path, paper=True)
+    assert paths["paper_table"].read_text() == md
+    lines = md.splitlines()
+    header = next(line for line in lines if line.startswith("| Env |"))
+    assert "BP (bilevel_planning)" in header and "SAC (sac)" in header
+    assert "| random |" in header  # an agent absent from the paper gets its own column
+    assert "CrashingAgent" in header
+    sr = next(line for line in lines if line.startswith("| Motion2D-p0 | SR"))
+    cells = [c.strip() for c in sr.split("|")[3:-1]]
+    assert cells[0] == "**1.00 ± 0.00** (1.00 ± 0.000)"  # BP: ours (paper)
+    assert cells[5].startswith("n/r [") and cells[5].endswith("(0.92 ± 0.050)")  # MPC
+    assert cells[13] == "0.00 ± 0.00"  # random: no paper value
+    assert cells[14] == "0.00"  # the crashing agent, one seed: no std
+    assert NOT_IN_RUNS in md and "no agent of this name is registered" in md
+    # Every paper cell appears once in the CSV, with ours or a reason.
+    rows = list(csv.DictReader(io.StringIO(paths["paper_csv"].read_text())))
+    paper_rows = [r for r in rows if r["paper_method"]]
+    keys = {(r["env_id"], r["paper_method"], r["metric"]) for r in paper_rows}
+    assert len(paper_rows) == len(keys)
+    assert len(paper_rows) == 8 * 13 * 3
+    for r in paper_rows:
+        assert (r["ours_seeds"] != "") != bool(r["not_run_reason"])
+    summary = list(csv.DictReader(io.StringIO(paths["csv"].read_text())))
+    crash = next(r for r in summary if "Crashing" in r["agent"])
+    assert crash["errors"] == "1" and crash["sr_mean"] == "0.0"
+    assert {r["command"] for r in summary} == {"kinder bench run (test fixture)"}
+
+
+def test_results_from_committed_csv_round_trip(fixture_run: Path, tmp_path: Path) -> None:
+    _, paths = write_report([fixture_run], tmp_path)
+    results = results_from_csv(paths["csv"])
+    assert {r.agent for r in results} == {
+        "bilevel_planning",
+        "random",
+        "kinder_bench_toy:CrashingAgent",
+    }
+    md = paper_markdown(compare(results))
+    assert "**1.00 ± 0.00** (1.00 ± 0.000)" in md
+    bad = tmp_path / "bad.csv"
+    bad.write_text("env_id,method\nx,y\n")
+    with pytest.raises(ValueError, match="not a summary row"):
+        results_from_csv(bad)
+
+
+def test_html_report_in_headless_chromium(fixture_run: Path, tmp_path: Path) -> None:
+    sync_api = pytest.importorskip("playwright.sync_api")
+    chromium = Path("/usr/bin/chromium")
+    if not chromium.exists():
+        pytest.skip("Debian's chromium is not installed (tools/install_system_deps.sh)")
+    _, paths = write_report([fixture_run], tmp_path, paper=True, html=True)
+    page_text = paths["html"].read_text()
+    assert "data:image/gif;base64," in page_text and "http://" not in page_text.replace(
+        "http://www.w3.org/2000/svg", ""
+    )
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(
+            executable_path=str(chromium), headless=True, args=["--no-sandbox"]
+        )
+        try:
+            page = browser.new_page(viewport={"width": 1280, "height": 900})
+            problems: list[str] = []
+            requests: list[str] = []
+            page.on("console", lambda m: problems.append(m.text) if m.type == "error" else None)
+            page.on("pageerror", lambda e: problems.append(str(e)))
+            page.on("request", lambda r: requests.append(r.url))
+            page.goto(paths["html"].as_uri())
+            page.wait_for_load_state("load")
+            assert problems == []
+            assert all(u.startswith(("file:", "data:")) for u in requests), requests
+            rows = page.locator("#results tbody tr:not(.hidden)")
+            assert rows.count() == 3  # BP, random, crashing (the not-run cells are hidden)
+            assert page.locator("#plot rect[data-method]").count() == 3
+            assert page.locator("figure img").count() == 3
+            page.screenshot(path=str(tmp_path / "report.png"), full_page=True)
+            # The method filter hides rows, bars and episodes of the unchecked method.
+            page.locator("input[data-filter='method'][value='random']").uncheck()
+            assert rows.count() == 2
+            assert page.locator("#plot rect[data-method='random']").count() == 0
+            assert page.locator("figure[data-method='random']:not(.hidden)").count() == 0
+            assert page.locator("#shown").inner_text() == "2"
+            # The paper's cells we did not run, for Motion2D-p0 only.
+            page.locator("#show-notrun").check()
+            page.locator("button[data-all='env'][data-on='0']").click()
+            page.locator(f"input[data-filter='env'][value='{MOTION}']").check()
+            assert rows.count() == 2 + 12  # the 12 paper methods other than BP
+            assert page.locator("#results tbody tr.notrun:not(.hidden)").count() == 12
+            page.screenshot(path=str(tmp_path / "report_filtered.png"))
+            assert problems == []
+        finally:
+            browser.close()
+    assert (tmp_path / "report.png").stat().st_size > 10_000
+
+
+def test_cli_report_paper_and_html(fixture_run: Path, tmp_path: Path) -> None:
+    result = CliRunner().invoke(
+        app, ["bench", "report", str(fixture_run), "--out", str(tmp_path), "--paper", "--html"]
+    )
+    assert result.exit_code == 0, result.output
+    assert "BP (bilevel_planning)" in result.output and "Not run:" in result.output
+    assert (tmp_path / "report.html").exists() and (tmp_path / "paper_comparison.csv").exists()
+    config = json.loads((fixture_run / "config.json").read_text())
+    assert {r["command"] for r in config["runs"]} == {"kinder bench run (test fixture)"}
+
+
+def test_bench_run_agent_all_skips_what_cannot_run(toy_id: str, tmp_path: Path) -> None:
+    out_dir = tmp_path / "all"
+    args = ["bench", "run", "--env", toy_id, "--agent", "all", "--import", "kinder_bench_toy"]
+    args += ["--seeds", "0", "--episodes", "1", "--max-steps", "3", "--out", str(out_dir)]
+    args += ["--executor", "inline", "--no-progress", "--arg", "horizon=3", "--no-report"]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    assert "skipping bilevel_planning on BenchReach: needs a planning model" in result.output
+    config = json.loads((out_dir / "config.json").read_text())
+    ran = {r["agent"] for r in config["runs"]}
+    assert ran == {a for a in AGENTS if unavailable_reason(a, toy_id) is None}
+    assert "random" in ran and "mpc" in ran
+    # Naming an agent that cannot run is an error with the reason.
+    named = ["bench", "run", "--env", toy_id, "--agent", "bilevel_planning"]
+    named += ["--import", "kinder_bench_toy", "--out", str(tmp_path / "named")]
+    result = CliRunner().invoke(app, named)
+    assert result.exit_code == 2 and "needs a planning model" in result.output
