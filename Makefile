@@ -8,7 +8,7 @@ export SDL_VIDEODRIVER ?= dummy
 export MUJOCO_GL ?= egl
 PYTEST_ARGS ?=
 
-.PHONY: help bootstrap sync system-deps demo test test-all lint typecheck fmt bench docs clean
+.PHONY: help bootstrap sync system-deps demo test test-all lint typecheck fmt bench docs results-doc clean
 
 help:  ## List the targets.
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
@@ -23,7 +23,7 @@ sync: bootstrap  ## Create .venv from uv.lock: all packages with every extra (to
 system-deps:  ## Debian packages (ffmpeg, chromium) and npm packages the tests need.
 	bash tools/install_system_deps.sh
 
-demo: sync  ## The main job: a small benchmark run with a results table and a GIF.
+demo: sync  ## The main job: BP, MPC and random on 2D and 3D envs; table, GIFs, HTML report.
 	$(UV) run --no-sync kinder demo
 
 lint: sync  ## ruff lint and format check.
@@ -53,6 +53,9 @@ bench: sync  ## Speed benchmarks (benchmarks/README.md explains each).
 
 docs: sync  ## Regenerate docs/envs/ pages for every registered id.
 	$(UV) run --no-sync python tools/gen_env_docs.py --all
+
+results-doc: sync  ## Regenerate docs/results.md from the summaries in benchmarks/results/.
+	$(UV) run --no-sync python tools/gen_results_doc.py
 
 clean:  ## Remove caches and run outputs.
 	rm -rf .mypy_cache .ruff_cache runs out **/.pytest_cache

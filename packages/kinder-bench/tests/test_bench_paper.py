@@ -244,3 +244,27 @@ def test_bench_run_agent_all_skips_what_cannot_run(toy_id: str, tmp_path: Path) 
     named += ["--import", "kinder_bench_toy", "--out", str(tmp_path / "named")]
     result = CliRunner().invoke(app, named)
     assert result.exit_code == 2 and "needs a planning model" in result.output
+
+
+REPO = Path(__file__).resolve().parents[3]
+
+
+def test_results_doc_is_current_and_every_row_has_its_command(tmp_path: Path) -> None:
+    from kinder_bench.results_doc import results_markdown, summary_files
+
+    files = summary_files(REPO / "benchmarks" / "results")
+    page = REPO / "docs" / "results.md"
+    if not files or not page.exists():
+        pytest.skip("not in the repository checkout")
+    text = results_markdown(files, link_root=page.parent)
+    assert page.read_text() == text, "docs/results.md is out of date: run `make results-doc`"
+    assert "BP (bilevel_planning)" in text and "](#command-1)" in text
+    bad = tmp_path / "bad_summary.csv"
+    rows = (REPO / "benchmarks" / "results" / "bilevel_planning_summary.csv").read_text()
+    header, first = rows.splitlines()[:2]
+    cut = header.split(",").index("command")
+    bad.write_text(
+        ",".join(header.split(",")[:cut]) + "\n" + ",".join(first.split(",")[:cut]) + "\n"
+    )
+    with pytest.raises(ValueError, match="has no command"):
+        results_markdown([bad], link_root=tmp_path)

@@ -300,12 +300,14 @@ def compare(
             primary[(r.env_id, r.agent)] = r
     columns = [Column(m, f"{m} ({paper.agents[m]})", paper.agents[m], m) for m in paper.methods]
     extra = [r for r in results if primary.get((r.env_id, r.agent)) is not r]
-    labels: dict[str, set[str]] = {}
+    # A method's column is its label, with the run id appended when the label covers
+    # several runs on one env.
+    labels: dict[tuple[str, str], set[str]] = {}
     for r in extra:
-        labels.setdefault(r.method, set()).add(r.run_id)
+        labels.setdefault((r.env_id, r.method), set()).add(r.run_id)
+    clash = {m for (_, m), ids in labels.items() if len(ids) > 1}
     extra_key = {
-        r.run_id: r.method if len(labels[r.method]) == 1 else f"{r.method}[{r.run_id[:6]}]"
-        for r in extra
+        r.run_id: f"{r.method}[{r.run_id[:6]}]" if r.method in clash else r.method for r in extra
     }
     seen: set[str] = set()
     for r in extra:
