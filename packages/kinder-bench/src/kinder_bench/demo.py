@@ -66,8 +66,8 @@ DEMO_SEEDS = (0, 1)
 #: Frames per recorded episode, about (the stride is the step budget / this).
 DEMO_FRAMES = 100
 DEMO_NOTE = (
-    "kinder demo: 2 seeds x 1-2 episodes (paper: 5 x 50), MPC with a small search (horizon 20, "
-    "5 rollouts); the paper's figures are for its full protocol."
+    "kinder demo: 2 seeds x 1-2 episodes (paper: 5 x 50) and MPC with a much smaller search "
+    "than the paper's (kinder_bench.demo); the paper's figures are for its full protocol."
 )
 
 
