@@ -154,3 +154,20 @@ class SlowAgent(Agent[NoArgs]):
     def act(self, obs: Any) -> NDArray[np.float64]:
         time.sleep(0.005)
         return np.zeros(2)
+
+
+class NeedsCheckpointAgent(Agent[NoArgs]):
+    """Stays still; says it cannot run unless ``KINDER_BENCH_TEST_CHECKPOINT`` names a file (the
+    way a learned agent reports a missing checkpoint)."""
+
+    name = "needs_checkpoint"
+
+    @classmethod
+    def unavailable(cls, args: Any, env_id: str) -> str | None:
+        path = os.environ.get("KINDER_BENCH_TEST_CHECKPOINT")
+        if path and os.path.exists(path):
+            return None
+        return "needs a checkpoint: set KINDER_BENCH_TEST_CHECKPOINT"
+
+    def act(self, obs: Any) -> NDArray[np.float64]:
+        return np.zeros(2)

@@ -136,7 +136,9 @@ def test_paper_report_on_a_fixture_run(fixture_run: Path, tmp_path: Path) -> Non
     assert cells[5].startswith("n/r [") and cells[5].endswith("(0.92 ± 0.050)")  # MPC
     assert cells[13] == "0.00 ± 0.00"  # random: no paper value
     assert cells[14] == "0.00"  # the crashing agent, one seed: no std
-    assert NOT_IN_RUNS in md and "no agent of this name is registered" in md
+    assert NOT_IN_RUNS in md  # MPC can run here but is not in the runs
+    for agent in ("llm_con", "dp", "ppo", "sac"):  # whatever these say when not run, it is there
+        assert (unavailable_reason(agent, MOTION) or NOT_IN_RUNS) in md
     # Every paper cell appears once in the CSV, with ours or a reason.
     rows = list(csv.DictReader(io.StringIO(paths["paper_csv"].read_text())))
     paper_rows = [r for r in rows if r["paper_method"]]
@@ -268,3 +270,27 @@ def test_results_doc_is_current_and_every_row_has_its_command(tmp_path: Path) ->
     )
     with pytest.raises(ValueError, match="has no command"):
         results_markdown([bad], link_root=tmp_path)
+
+
+def test_an_agent_that_needs_a_checkpoint(
+    toy_id: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(AGENTS, "needs_checkpoint", "kinder_bench_toy:NeedsCheckpointAgent")
+    monkeypatch.delenv("KINDER_BENCH_TEST_CHECKPOINT", raising=False)
+    why = "needs a checkpoint: set KINDER_BENCH_TEST_CHECKPOINT"
+    listing = CliRunner().invoke(app, ["agents"])
+    assert listing.exit_code == 0 and "cannot run here on Motion2D-p0, " in listing.output
+    assert why in listing.output
+    args = ["bench", "run", "--env", toy_id, "--agent", "all", "--import", "kinder_bench_toy"]
+    args += ["--seeds", "0", "--episodes", "1", "--max-steps", "2", "--executor", "inline"]
+    args += ["--no-progress", "--no-report", "--arg", "horizon=2"]
+    result = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "a")])
+    assert result.exit_code == 0, result.output
+    assert f"skipping needs_checkpoint on BenchReach: {why}" in result.output
+    checkpoint = tmp_path / "ckpt"
+    checkpoint.write_text("weights")
+    monkeypatch.setenv("KINDER_BENCH_TEST_CHECKPOINT", str(checkpoint))
+    result = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "b")])
+    assert result.exit_code == 0, result.output
+    config = json.loads((tmp_path / "b" / "config.json").read_text())
+    assert "needs_checkpoint" in {r["agent"] for r in config["runs"]}

@@ -146,7 +146,11 @@ def envs(
 
 @app.command()
 def agents() -> None:
-    """List the agents and their arguments (defaults and meaning)."""
+    """List the agents, their arguments (defaults and meaning) and, where an agent cannot run on
+    the paper's envs here with its defaults, why."""
+    from kinder_bench.agents import unavailable_reason
+    from kinder_bench.protocol import PAPER_ENVS
+
     for name in AGENTS:
         try:
             cls = agent_class(name)
@@ -158,6 +162,14 @@ def agents() -> None:
         typer.echo(f"  {doc}")
         for arg, type_name, default, help_ in describe_args(cls):
             typer.echo(f"    {arg}: {type_name} = {default!r}  {help_}")
+        # Whether it can run here with its defaults, on the paper's envs.
+        reasons: dict[str, list[str]] = {}
+        for env_id in PAPER_ENVS:
+            why = unavailable_reason(name, env_id)
+            if why is not None:
+                reasons.setdefault(why, []).append(short_id(env_id))
+        for why, where in reasons.items():
+            typer.echo(f"    cannot run here on {', '.join(where)}: {why}")
 
 
 @app.command()
