@@ -294,3 +294,15 @@ def test_an_agent_that_needs_a_checkpoint(
     assert result.exit_code == 0, result.output
     config = json.loads((tmp_path / "b" / "config.json").read_text())
     assert "needs_checkpoint" in {r["agent"] for r in config["runs"]}
+
+
+def test_suite_paper_with_agent_all_expands_to_what_can_run() -> None:
+    from kinder_bench.cli import _runnable, _suite_envs
+
+    envs = _suite_envs("paper")
+    assert envs and set(envs) <= set(PAPER_ENVS)
+    pairs = _runnable(envs, ["all"], ["horizon=7"])
+    expected = {(e, a) for e in envs for a in AGENTS if unavailable_reason(a, e, None) is None}
+    assert {(e, a) for e, a, _ in pairs} == expected
+    assert {(e, "bilevel_planning") for e in envs} <= expected  # BP models every paper env
+    assert all(args == {"horizon": "7"} for _, a, args in pairs if a == "mpc")

@@ -298,9 +298,12 @@ def bench_run(
     ] = None,
     progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
     report: Annotated[bool, typer.Option(help="Write and print the report at the end.")] = True,
+    html: Annotated[bool, typer.Option(help="The report also writes report.html.")] = False,
     imports: ImportOpt = None,
 ) -> None:
-    """Run every agent on every env over the seeds (resuming what the run directory has)."""
+    """Run every agent on every env over the seeds (resuming what the run directory has).
+
+    With ``--suite paper`` the report at the end is the paper comparison (Table II's layout)."""
     from kinder_bench.runner import RunConfig, run_benchmark
 
     mods = _import(imports)
@@ -330,7 +333,7 @@ def bench_run(
         err=True,
     )
     if report:
-        _report([out], out, plot=True)
+        _report([out], out, plot=True, paper=suite == "paper", html=html)
 
 
 def _runnable(
