@@ -4,8 +4,10 @@ Every ``*_summary.csv`` in ``benchmarks/results/`` (the ``summary.csv`` a report
 there, with a ``command`` column: the command that produced each row) becomes a table, and all of
 them together fill the paper's Table II layout beside the paper's figures
 (:mod:`kinder_bench.paper`). A row without its command is an error: every committed figure must
-say how it was measured. Columns a summary has beyond the report's (e.g. ``search``) are shown
-after the method's name. ``tools/gen_results_doc.py`` (``make results-doc``) writes the page.
+say how it was measured. A paper cell without a committed result says whether the project has
+the agent at all (not whether this machine could run it, so the page is the same everywhere).
+Columns a summary has beyond the report's (e.g. ``search``) are shown after the method's name.
+``tools/gen_results_doc.py`` (``make results-doc``) writes the page.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from kinder_bench.agents import agent_name
+from kinder_bench.agents import AGENTS, agent_name
 from kinder_bench.paper import compare, fmt_stat, metric_digits, paper_markdown, results_from_csv
 from kinder_bench.report import CSV_COLUMNS
 
@@ -32,6 +34,19 @@ def _extra_columns(path: Path) -> list[dict[str, str]]:
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     return [{k: v for k, v in row.items() if k not in CSV_COLUMNS and v} for row in rows]
+
+
+def _committed_reason(agent: str, env_id: str) -> str:
+    """Why a paper cell has no committed result, independent of this machine (an agent's own
+    :meth:`~kinder_bench.agents.Agent.unavailable` depends on checkpoints, endpoints and GPUs
+    here, so the page would differ between machines)."""
+    del env_id
+    if agent not in AGENTS:
+        return "the project has no such agent yet"
+    return (
+        "not in the committed results (`kinder agents` says whether it can run on your "
+        "machine, and what it needs)"
+    )
 
 
 def _method(method: str, extra: dict[str, str]) -> str:
@@ -76,7 +91,7 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
         "every other env and method we have results for). When a summary has several runs of "
         "one agent on an env, the one with the most episodes is compared.",
         "",
-        paper_markdown(compare(everything)).rstrip("\n"),
+        paper_markdown(compare(everything, reason=_committed_reason)).rstrip("\n"),
         "",
         "## Every committed result",
         "",
