@@ -132,9 +132,9 @@ def test_paper_report_on_a_fixture_run(fixture_run: Path, tmp_path: Path) -> Non
     assert "CrashingAgent" in header
     sr = next(line for line in lines if line.startswith("| Motion2D-p0 | SR"))
     cells = [c.strip() for c in sr.split("|")[3:-1]]
-    assert cells[0] == "**1.00 ± 0.00** (1.00 ± 0.000)"  # BP: ours (paper)
+    assert cells[0] == "**1.00 ± 0.000** (1.00 ± 0.000)"  # BP: ours (paper)
     assert cells[5].startswith("n/r [") and cells[5].endswith("(0.92 ± 0.050)")  # MPC
-    assert cells[13] == "0.00 ± 0.00"  # random: no paper value
+    assert cells[13] == "0.00 ± 0.000"  # random: no paper value
     assert cells[14] == "0.00"  # the crashing agent, one seed: no std
     assert NOT_IN_RUNS in md  # MPC can run here but is not in the runs
     for agent in ("llm_con", "dp", "ppo", "sac"):  # whatever these say when not run, it is there
@@ -162,7 +162,7 @@ def test_results_from_committed_csv_round_trip(fixture_run: Path, tmp_path: Path
         "kinder_bench_toy:CrashingAgent",
     }
     md = paper_markdown(compare(results))
-    assert "**1.00 ± 0.00** (1.00 ± 0.000)" in md
+    assert "**1.00 ± 0.000** (1.00 ± 0.000)" in md
     bad = tmp_path / "bad.csv"
     bad.write_text("env_id,method\nx,y\n")
     with pytest.raises(ValueError, match="not a summary row"):

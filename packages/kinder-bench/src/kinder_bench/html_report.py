@@ -30,6 +30,7 @@ from kinder_bench.agents import agent_name
 from kinder_bench.envs import short_id
 from kinder_bench.paper import (
     METRICS,
+    STD_DIGITS,
     Comparison,
     PaperResults,
     Result,
@@ -83,7 +84,7 @@ def _row_data(
         }
         for metric in METRICS:
             stat = r.stat(metric)
-            row[metric] = fmt_stat(stat, metric_digits(metric, stat))
+            row[metric] = fmt_stat(stat, metric_digits(metric, stat), STD_DIGITS)
             pv = paper.cells.get((r.env_id, method, metric)) if method else None
             row[f"paper_{metric}"] = pv.text() if pv is not None else ""
         rows.append(row)

@@ -10,8 +10,9 @@ from run directories (:func:`results_from_summaries`) or from committed ``summar
 :func:`paper_markdown` writes the paper's layout: one column per paper method (BP, LLMCon, ...,
 SAC, with our agent's name), then one per method we ran that the paper does not have; per env
 (the paper's eight first, then any other env we ran) the rows SR ↑, Rwd ↑ and Inf-Time ↓. Each
-cell is ``ours (paper)``, both ``mean ± std``: ours over seeds as in :mod:`kinder_bench.metrics`,
-the paper's std as its appendix prints it. A paper cell we have no result for says why, as a
+cell is ``ours (paper)``, both ``mean ± std`` in the paper's form (the mean with Table II's digits,
+the std with its appendix's three): ours over seeds as in :mod:`kinder_bench.metrics`, the
+paper's as printed. A paper cell we have no result for says why, as a
 lettered note under the table: the agent's own :meth:`~kinder_bench.agents.Agent.unavailable`
 reason (a checkpoint, an endpoint, a GPU, a planning model), that no such agent exists here, or
 that it can run here but is not in the given runs.
@@ -216,13 +217,18 @@ def results_from_csv(path: Path | str) -> list[Result]:
     return out
 
 
-def fmt_stat(stat: Stat, digits: int) -> str:
-    """``mean ± std`` (just the mean with one seed; ``--`` when undefined)."""
+#: Digits of a std in the paper's appendix table.
+STD_DIGITS = 3
+
+
+def fmt_stat(stat: Stat, digits: int, std_digits: int | None = None) -> str:
+    """``mean ± std`` (just the mean with one seed; ``--`` when undefined); the std with
+    ``std_digits`` digits (default: ``digits``)."""
     if stat.mean is None:
         return "--"
     text = f"{stat.mean:.{digits}f}"
     if stat.std is not None:
-        text += f" ± {stat.std:.{digits}f}"
+        text += f" ± {stat.std:.{digits if std_digits is None else std_digits}f}"
     return text
 
 
@@ -262,7 +268,7 @@ class Cell:
         if self.ours is None:
             return ""
         stat = self.ours.stat(self.metric)
-        return fmt_stat(stat, metric_digits(self.metric, stat))
+        return fmt_stat(stat, metric_digits(self.metric, stat), STD_DIGITS)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -352,7 +358,8 @@ def paper_markdown(comparison: Comparison) -> str:
     notes = _notes(comparison)
     cols = comparison.columns
     lines = [
-        "Each cell: ours (paper), mean ± std over seeds; the paper's std from its appendix. "
+        "Each cell: ours (paper), mean ± std over seeds (the std with three digits, as the "
+        "paper's appendix prints it; the paper's mean from Table II, its std from the appendix). "
         "`--`: undefined (no success, or no episode); `n/r [x]`: not run, note x below.",
         "",
         "| Env | Metric | " + " | ".join(c.title for c in cols) + " |",
