@@ -306,3 +306,20 @@ def test_suite_paper_with_agent_all_expands_to_what_can_run() -> None:
     assert {(e, a) for e, a, _ in pairs} == expected
     assert {(e, "bilevel_planning") for e in envs} <= expected  # BP models every paper env
     assert all(args == {"horizon": "7"} for _, a, args in pairs if a == "mpc")
+
+
+def test_html_report_finds_the_videos_of_a_moved_run_directory(
+    fixture_run: Path, tmp_path: Path
+) -> None:
+    import shutil
+
+    moved = tmp_path / "moved"
+    shutil.copytree(fixture_run, moved)
+    lines = (moved / "results.jsonl").read_text().splitlines()
+    records = [json.loads(line) for line in lines]
+    for r in records:
+        if r["video"]:
+            r["video"] = f"gone/videos/{Path(r['video']).name}"  # where it was run from
+    (moved / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
+    _, paths = write_report([moved], tmp_path / "out", plot=False, html=True)
+    assert paths["html"].read_text().count("data:image/gif;base64,") == 3

@@ -115,12 +115,27 @@ def _row_data(
     return rows
 
 
-def _videos(records: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], Mapping[str, Any]]:
-    """(env, method) → the record of its first recorded episode (lowest seed, then episode)."""
-    out: dict[tuple[str, str], Mapping[str, Any]] = {}
+def _find_video(video: str, run_dirs: Sequence[RunDirInfo]) -> Path | None:
+    """A recorded video: where the record says (relative to the directory the run was started
+    from), else by its name in a run directory's ``videos/`` (a run directory moved or reported
+    from elsewhere)."""
+    candidates = [Path(video)] + [Path(d.path) / "videos" / Path(video).name for d in run_dirs]
+    return next((p for p in candidates if p.is_file()), None)
+
+
+def _videos(
+    records: Sequence[Mapping[str, Any]], run_dirs: Sequence[RunDirInfo]
+) -> dict[tuple[str, str], tuple[Mapping[str, Any], Path]]:
+    """(env, method) → the record of its first recorded episode (lowest seed, then episode) and
+    the video's path."""
+    out: dict[tuple[str, str], tuple[Mapping[str, Any], Path]] = {}
     for r in sorted(records, key=lambda r: (r["seed"], r["episode"])):
-        if r.get("video") and Path(r["video"]).exists():
-            out.setdefault((r["env_id"], agent_name(r["label"])), r)
+        key = (r["env_id"], agent_name(r["label"]))
+        if key in out or not r.get("video"):
+            continue
+        path = _find_video(r["video"], run_dirs)
+        if path is not None:
+            out[key] = (r, path)
     return out
 
 
@@ -340,16 +355,15 @@ def render_html(
     w("</svg><div id='legend' style='font-size:12px'></div></section>")
 
     # Videos.
-    videos = _videos(records)
+    videos = _videos(records, run_dirs)
     if videos:
         w("<section><h2>Episodes</h2>")
         for env in dict.fromkeys(e for e, _ in videos):
             w(f"<div data-env='{_e(env)}'><h3 style='font-size:14px'>{_e(short_id(env))}</h3>")
             w("<div class='videos'>")
-            for (e, method), rec in videos.items():
+            for (e, method), (rec, path) in videos.items():
                 if e != env:
                     continue
-                path = Path(rec["video"])
                 status = "success" if rec["success"] else "failure"
                 caption = (
                     f"{_e(method)}: <span class='{'ok' if rec['success'] else 'fail'}'>{status}"
