@@ -12,10 +12,10 @@ Usage:
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
+from kinder_bench.results import write_text
 from kinder_bench.results_doc import results_markdown, summary_files
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,9 +35,7 @@ def main() -> int:
         print(f"{PAGE} is up to date")
         return 0
     PAGE.parent.mkdir(parents=True, exist_ok=True)
-    tmp = PAGE.with_name(f".{PAGE.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, PAGE)
+    write_text(PAGE, text)
     print(f"wrote {PAGE}")
     return 0
 

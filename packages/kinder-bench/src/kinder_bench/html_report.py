@@ -428,12 +428,3 @@ def render_html(
     w(f"<script type='application/json' id='report-data'>{data_json}</script>")
     w(f"<script>{_JS}</script></body></html>\n")
     return "".join(out)
-
-
-def write_html(path: Path | str, page: str) -> Path:
-    """Write the page atomically."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(page, encoding="utf-8")
-    tmp.replace(path)
-    return path

@@ -10,7 +10,7 @@ from typing import Any
 
 from kinder_bench.envs import short_id
 from kinder_bench.metrics import Stat, Summary, aggregate
-from kinder_bench.results import load_config, load_records
+from kinder_bench.results import load_config, load_records, write_text
 
 TABLE_FILE = "table.md"
 CSV_FILE = "summary.csv"
@@ -222,8 +222,8 @@ def write_report(
     commands = run_commands(run_dirs)
     md = markdown_table(summaries)
     paths = {"table": out / TABLE_FILE, "csv": out / CSV_FILE}
-    _write_text(paths["table"], md)
-    _write_text(paths["csv"], csv_table(summaries, commands))
+    write_text(paths["table"], md)
+    write_text(paths["csv"], csv_table(summaries, commands))
     if plot:
         paths["plot"] = plot_success(summaries, out / PLOT_FILE)
     comparison = None
@@ -236,19 +236,12 @@ def write_report(
             md = paper_markdown(comparison)
             paths["paper_table"] = out / PAPER_TABLE_FILE
             paths["paper_csv"] = out / PAPER_CSV_FILE
-            _write_text(paths["paper_table"], md)
-            _write_text(paths["paper_csv"], paper_csv(comparison))
+            write_text(paths["paper_table"], md)
+            write_text(paths["paper_csv"], paper_csv(comparison))
         if html:
-            from kinder_bench.html_report import HTML_FILE, RunDirInfo, render_html, write_html
+            from kinder_bench.html_report import HTML_FILE, RunDirInfo, render_html
 
             dirs = [RunDirInfo(str(d), load_config(d)) for d in run_dirs]
             page = render_html(results, records, dirs, comparison, title=title, note=note)
-            paths["html"] = write_html(out / HTML_FILE, page)
+            paths["html"] = write_text(out / HTML_FILE, page)
     return md, paths
-
-
-def _write_text(path: Path, text: str) -> None:
-    """Write through a temporary file and a rename (readers never see half a file)."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)

@@ -90,12 +90,18 @@ def append_record(path: Path | str, record: dict[str, Any]) -> None:
         os.close(fd)
 
 
-def write_json(path: Path | str, obj: Any) -> None:
-    """Write JSON through a temporary file and a rename, so readers never see half a file."""
+def write_text(path: Path | str, text: str) -> Path:
+    """Write text (UTF-8) through a temporary file and a rename: readers never see half a file."""
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(obj, indent=2, sort_keys=True) + "\n")
+    tmp.write_text(text, encoding="utf-8")
     os.replace(tmp, path)
+    return path
+
+
+def write_json(path: Path | str, obj: Any) -> None:
+    """Write JSON through a temporary file and a rename, so readers never see half a file."""
+    write_text(path, json.dumps(obj, indent=2, sort_keys=True) + "\n")
 
 
 def invocation() -> str:
