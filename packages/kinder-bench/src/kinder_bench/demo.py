@@ -130,10 +130,8 @@ def run_demo(
         progress=progress,
         command="kinder demo",
     )
-    table, paths = write_report(
-        [out], out, paper=True, html=True, title="kinder demo", note=DEMO_NOTE
-    )
-    table = (out / "table.md").read_text()
+    _, paths = write_report([out], out, paper=True, html=True, title="kinder demo", note=DEMO_NOTE)
+    table = paths["table"].read_text()  # our table (the paper comparison is paper_table.md)
     videos = sorted(Path(r["video"]) for r in outcome.records if r.get("video"))
     return DemoResult(
         table, [*videos, *paths.values()], time.perf_counter() - start, paths.get("html")
