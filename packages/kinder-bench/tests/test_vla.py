@@ -53,7 +53,8 @@ def test_wire_refuses_object_arrays_and_garbage() -> None:
 
 
 class _Echo:
-    metadata: dict[str, Any] = {"policy": "echo"}
+    def __init__(self) -> None:
+        self.metadata: dict[str, Any] = {"policy": "echo"}
 
     def infer(self, observation: dict[str, Any]) -> dict[str, Any]:
         if observation.get("fail"):
@@ -84,9 +85,11 @@ def test_server_failure_and_timeout_become_clear_errors() -> None:
             # The server closed the connection after the failure.
             with pytest.raises(PolicyServerError, match="closed"):
                 client.infer({"state": np.zeros(1)})
-        with PolicyClient(server.url, timeout=0.2) as client:
-            with pytest.raises(PolicyServerError, match=r"no reply within 0\.2 s"):
-                client.infer({"state": np.zeros(1), "sleep": 1.0})
+        with (
+            PolicyClient(server.url, timeout=0.2) as client,
+            pytest.raises(PolicyServerError, match=r"no reply within 0\.2 s"),
+        ):
+            client.infer({"state": np.zeros(1), "sleep": 1.0})
 
 
 def test_client_reports_an_unreachable_server() -> None:
@@ -144,7 +147,8 @@ def test_vla_agent_reproduces_a_demonstration_through_the_runner(tmp_path: Path)
 
 def test_vla_agent_fails_clearly_on_server_errors(tmp_path: Path) -> None:
     class Malformed:
-        metadata: dict[str, Any] = {}
+        def __init__(self) -> None:
+            self.metadata: dict[str, Any] = {}
 
         def infer(self, observation: dict[str, Any]) -> dict[str, Any]:
             return {"actions": np.zeros((4, 2))}  # Motion2D needs 5 action dimensions
