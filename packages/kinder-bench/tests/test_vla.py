@@ -169,3 +169,8 @@ def test_vla_agent_needs_a_url() -> None:
     env = kinder_core.make(MOTION)
     with pytest.raises(ValueError, match="needs a policy server"):
         VLAAgent(env, VLAArgs(), seed=0)
+
+
+def test_vla_agent_says_it_needs_a_server() -> None:
+    assert "needs a policy server" in str(VLAAgent.unavailable(VLAArgs(), MOTION))
+    assert VLAAgent.unavailable(VLAArgs(url="ws://127.0.0.1:8000"), MOTION) is None

@@ -107,6 +107,17 @@ class VLAAgent(Agent[VLAArgs]):
     name = "vla"
     Args = VLAArgs
 
+    @classmethod
+    def unavailable(cls, args: Any, env_id: str) -> str | None:
+        """Needs a policy server (π0.5 needs a GPU machine with openpi; see the README)."""
+        del env_id
+        if getattr(args, "url", ""):
+            return None
+        return (
+            "needs a policy server: --arg url=ws://HOST:PORT (π0.5 runs in openpi's own "
+            "environment on a GPU; see the kinder-bench README, 'VLA')"
+        )
+
     def __init__(self, env: gymnasium.Env[Any, Any], args: VLAArgs, seed: int) -> None:
         super().__init__(env, args, seed)
         if not args.url:
