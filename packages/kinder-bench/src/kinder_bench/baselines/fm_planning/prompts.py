@@ -15,7 +15,7 @@ appendix templates (Figures "LLMPlan prompt template" and "LLMCon prompt templat
 * ``{goal_str}``: the env's natural-language description (``metadata["description"]``, the
   upstream's goal string).
 * ``{init_state_str}``: the initial state as one table per type (``ObjectCentricState.pretty``,
-  3 decimals).
+  3 decimals, trailing spaces removed).
 * ``{in_context_examples}`` (Con only): see below.
 
 **In-context examples** (upstream: hand-written markdown files per env, some of them one-paragraph
@@ -161,6 +161,11 @@ def format_type_hierarchy(types: Sequence[Type]) -> str:
     return "\n".join(lines)
 
 
+def format_state(state: ObjectCentricState) -> str:
+    """The ``{init_state_str}`` block: one table per type, 3 decimals, no trailing spaces."""
+    return "\n".join(line.rstrip() for line in state.pretty(precision=3).splitlines())
+
+
 def format_call(call: SkillCall, state: ObjectCentricState, decimals: int | None = None) -> str:
     """A plan line ``name(obj:type, ...)[p, ...]``; ``decimals=None`` prints exact floats."""
     types = {o.name: o.type.name for o in state.objects}
@@ -192,7 +197,7 @@ def build_prompt(
         "typed_objects": format_typed_objects(state),
         "type_hierarchy": format_type_hierarchy([*model.types, *(o.type for o in state.objects)]),
         "goal_str": goal_string(env),
-        "init_state_str": state.pretty(precision=3),
+        "init_state_str": format_state(state),
         "output_format": OUTPUT_FORMAT,
     }
     if in_context_examples is None:
@@ -298,7 +303,7 @@ def _example_for_seed(
     ok, _, _ = run_plan(skill_env, parsed.calls)
     if not ok:
         return None, f"seed {seed}: the plan rounded to {EXAMPLE_DECIMALS} decimals fails"
-    return Example(seed, format_typed_objects(x0), x0.pretty(precision=3), lines), ""
+    return Example(seed, format_typed_objects(x0), format_state(x0), lines), ""
 
 
 def make_examples(
