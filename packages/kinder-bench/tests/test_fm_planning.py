@@ -11,17 +11,15 @@ import base64
 import io
 import json
 import os
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from fm_test_server import ChatServer, prompt_text
 
 from kinder_bench.agents import AGENTS, agent_class, describe_args, make_agent
 from kinder_bench.agents.base import AgentFailure
-from kinder_bench.baselines.bilevel_planning import plan_episode, use_model
+from kinder_bench.baselines.bilevel_planning import use_model
 from kinder_bench.baselines.fm_planning.agents import FMPlanningAgent
 from kinder_bench.baselines.fm_planning.client import CacheMiss, ChatClient, ChatError
 from kinder_bench.baselines.fm_planning.parser import parse_plan
@@ -30,11 +28,16 @@ from kinder_bench.baselines.fm_planning.prompts import (
     format_call,
     format_state,
     make_examples,
-    plan_calls,
     render_examples,
 )
+from kinder_bench.baselines.fm_planning.scripted_server import (
+    ChatServer,
+    oracle_answers,
+    prompt_text,
+    table_responder,
+)
 from kinder_bench.protocol import PAPER_ENVS
-from kinder_bench.runner import TIMING_FIELDS, RunConfig, agent_seed, episode_seeds, run_benchmark
+from kinder_bench.runner import TIMING_FIELDS, RunConfig, episode_seeds, run_benchmark
 from kinder_core import make_object_centric
 from kinder_core.wrappers import BoxObservation
 from kinder_gym.models import create_model
@@ -106,7 +109,8 @@ def test_parser_drops_a_bad_line_and_goes_on(line: str, reason: str) -> None:
 )
 def test_parser_stops_at_a_bad_line(line: str, reason: str) -> None:
     _, model, x0 = _toy_state()
-    text = f"Plan:\nPick(robot:robot, obstruction:block)[]\n{line}\nPick(robot:robot, target:target_block)\n"
+    first, last = "Pick(robot:robot, obstruction:block)[]", "Pick(robot:robot, target:target_block)"
+    text = f"Plan:\n{first}\n{line}\n{last}\n"
     parsed = parse_plan(text, model, x0)
     assert len(parsed.calls) == 1
     assert parsed.dropped[0]["line"] == line and parsed.dropped[0]["effect"] == "stopped"
@@ -169,9 +173,13 @@ def test_client_caches_by_the_full_request(tmp_path: Path) -> None:
     assert stored["request"]["seed"] == 3 and stored["response"]["text"] == "echo 2"
     assert server.requests[0]["seed"] == 3 and server.requests[0]["temperature"] == 1.0
     # Cache-only: a hit needs no server, a miss names the request.
-    replay = ChatClient("m", base_url="http://127.0.0.1:9/v1", cache_dir=tmp_path, cache_mode="only")
+    replay = ChatClient(
+        "m", base_url="http://127.0.0.1:9/v1", cache_dir=tmp_path, cache_mode="only"
+    )
     assert replay.complete(replay.make_request(msgs, 1.0, seed=3)).text == "echo 2"
-    with pytest.raises(CacheMiss, match=r"cache-only mode: no cached response for request [0-9a-f]{64}.*'hi'"):
+    with pytest.raises(
+        CacheMiss, match=r"cache-only mode: no cached response for request [0-9a-f]{64}.*'hi'"
+    ):
         replay.complete(replay.make_request(msgs, 1.0, seed=5))
 
 
@@ -182,12 +190,14 @@ def test_client_retries_transient_errors_only(tmp_path: Path) -> None:
         response = client.complete(client.make_request(msgs))
         assert response.attempts == 4 and response.text == "echo 2"
     with ChatServer(_hello, fail_first=(500, 500, 500)) as server:
-        client = ChatClient("m", base_url=server.base_url, cache_mode="off", backoff=0, max_retries=2)
+        client = ChatClient(
+            "m", base_url=server.base_url, cache_mode="off", backoff=0, max_retries=2
+        )
         with pytest.raises(ChatError, match="InternalServerError after 3 attempt"):
             client.complete(client.make_request(msgs))
     with ChatServer(_hello, fail_first=(400,)) as server:
         client = ChatClient("m", base_url=server.base_url, cache_dir=tmp_path, backoff=0)
-        with pytest.raises(ChatError, match="BadRequestError .*not retried"):
+        with pytest.raises(ChatError, match=r"BadRequestError .*not retried"):
             client.complete(client.make_request(msgs))
         assert len(server.requests) == 1
     assert not list(tmp_path.rglob("*.json"))  # failures are not cached
@@ -249,7 +259,11 @@ def test_con_prompt_snapshot(env_id: str, tmp_path: Path) -> None:
 def test_agents_are_registered_with_their_arguments() -> None:
     for name in ("llm_plan", "vlm_plan", "llm_con", "vlm_con"):
         cls = agent_class(name)
-        assert issubclass(cls, FMPlanningAgent) and cls.name == name and AGENTS[name].endswith(cls.__name__)
+        assert (
+            issubclass(cls, FMPlanningAgent)
+            and cls.name == name
+            and AGENTS[name].endswith(cls.__name__)
+        )
         docs = {n: d for n, _, _, d in describe_args(cls)}
         assert docs["model"] and docs["cache_mode"]
         assert ("num_examples" in docs) == name.endswith("_con")
@@ -352,28 +366,6 @@ def test_vlm_agents_send_the_rendered_initial_state(tmp_path: Path) -> None:
 ORACLE_EPISODES = 4
 
 
-def _oracle_responder(env_id: str, seeds: list[int]) -> Callable[[dict[str, Any]], str]:
-    """Answers keyed by the episode's initial-state table: BP's plan in the answer syntax."""
-    env = make_object_centric(env_id)
-    answers: dict[str, str] = {}
-    for i, env_seed in enumerate(episode_seeds(seeds[0], ORACLE_EPISODES)):
-        x0, _ = env.reset(seed=env_seed)
-        plan, _ = plan_episode(env, x0, seed=agent_seed(seeds[0], i))
-        assert plan is not None, (env_id, env_seed)
-        lines = [format_call(c, x0) for c in plan_calls(plan.skills)]
-        answers[format_state(x0)] = "The scene is clear.\nPlan:\n" + "\n".join(lines) + "\n"
-
-    def respond(request: dict[str, Any]) -> str:
-        text = prompt_text(request)
-        # The episode's own table comes after the examples (Con prompts contain other tables).
-        tail = text.rsplit("from an initial state described below.", 1)[-1]
-        hits = [a for table, a in answers.items() if table in tail]
-        assert len(hits) == 1, "the prompt does not hold exactly one scripted initial state"
-        return hits[0]
-
-    return respond
-
-
 def _deterministic(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
     out = []
     for r in records:
@@ -397,7 +389,6 @@ def _deterministic(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def test_oracle_answers_reach_bilevel_plannings_success(
     env_id: str, agent: str, tmp_path: Path
 ) -> None:
-    seeds = [0]
     bp = run_benchmark(
         [RunConfig(env_id, "bilevel_planning", seeds=(0,), episodes=ORACLE_EPISODES)],
         tmp_path / "bp",
@@ -407,7 +398,7 @@ def test_oracle_answers_reach_bilevel_plannings_success(
     args = {"cache_dir": str(tmp_path / "cache"), "backoff": 0.0, "num_examples": 2}
     if agent.endswith("_plan"):
         del args["num_examples"]
-    with ChatServer(_oracle_responder(env_id, seeds)) as server:
+    with ChatServer(table_responder(oracle_answers(env_id, 0, ORACLE_EPISODES))) as server:
         live = run_benchmark(
             [
                 RunConfig(

@@ -14,8 +14,7 @@ appendix templates (Figures "LLMPlan prompt template" and "LLMCon prompt templat
   that have no children, one per line.
 * ``{goal_str}``: the env's natural-language description (``metadata["description"]``, the
   upstream's goal string).
-* ``{init_state_str}``: the initial state as one table per type (``ObjectCentricState.pretty``,
-  3 decimals, trailing spaces removed).
+* ``{init_state_str}``: the initial state as one table per type (:func:`format_state`).
 * ``{in_context_examples}`` (Con only): see below.
 
 **In-context examples** (upstream: hand-written markdown files per env, some of them one-paragraph
@@ -38,6 +37,7 @@ import functools
 import hashlib
 import io
 import json
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -117,6 +117,9 @@ EXAMPLE_DECIMALS = 3
 EXAMPLE_SEED_BASE = 1_000_000
 
 
+_NEGATIVE_ZERO = re.compile(r"(?<!\S)-(0\.000)(?!\S)")
+
+
 def _num(x: float) -> str:
     return repr(round(float(x), 4))
 
@@ -162,8 +165,11 @@ def format_type_hierarchy(types: Sequence[Type]) -> str:
 
 
 def format_state(state: ObjectCentricState) -> str:
-    """The ``{init_state_str}`` block: one table per type, 3 decimals, no trailing spaces."""
-    return "\n".join(line.rstrip() for line in state.pretty(precision=3).splitlines())
+    """The ``{init_state_str}`` block: one table per type, 3 decimals, ``-0.000`` written as
+    ``0.000`` (simulator noise around zero would otherwise change the prompt), no trailing
+    spaces."""
+    text = _NEGATIVE_ZERO.sub(r"\1 ", state.pretty(precision=3))
+    return "\n".join(line.rstrip() for line in text.splitlines())
 
 
 def format_call(call: SkillCall, state: ObjectCentricState, decimals: int | None = None) -> str:

@@ -1,9 +1,15 @@
-"""A local OpenAI-compatible chat server for the foundation-model planner tests.
+"""A scripted local OpenAI-compatible chat server, and oracle answers from bilevel planning.
 
-A real HTTP server (stdlib ``http.server``) on a loopback port, in a thread. ``POST
-/v1/chat/completions`` answers with ``responder(request) -> str`` in the chat-completions format
-(usage: ``ceil(chars / 4)`` prompt tokens). ``fail_first`` lists HTTP status codes returned, in
-order, before any real answer (to test retries). Every request body is kept in ``requests``.
+:class:`ChatServer` is a real HTTP server (stdlib ``http.server``) on a loopback port, in a thread:
+``POST /v1/chat/completions`` answers with ``responder(request) -> str`` in the chat-completions
+format (usage: ``ceil(characters / 4)`` tokens each way). ``fail_first`` lists HTTP status codes
+returned, in order, before any real answer (to exercise retries). Every request body is kept in
+``requests``. The tests use it as the model, and it dry-runs a benchmark set-up without a model.
+
+:func:`oracle_answers` and :func:`table_responder` script it with the bilevel planner's plans:
+for each episode of a run seed, the answer is BP's plan (the one the ``bilevel_planning`` agent
+finds first in that episode) written in the answer syntax with exact parameters, keyed by the
+episode's initial-state table, which the responder finds in the prompt.
 """
 
 from __future__ import annotations
@@ -19,7 +25,7 @@ Responder = Callable[[dict[str, Any]], str]
 
 
 def _prompt_text(request: dict[str, Any]) -> str:
-    parts = []
+    parts: list[str] = []
     for m in request["messages"]:
         content = m["content"]
         if isinstance(content, list):
@@ -116,3 +122,37 @@ class ChatServer:
 def prompt_text(request: dict[str, Any]) -> str:
     """The text parts of a request's messages."""
     return _prompt_text(request)
+
+
+def oracle_answers(env_id: str, run_seed: int, episodes: int) -> dict[str, str]:
+    """Initial-state table → BP's plan as an answer, for episodes ``0..episodes-1`` of
+    ``run_seed`` (episodes where BP finds no plan get an answer with an empty plan)."""
+    from kinder_bench.baselines.bilevel_planning import plan_episode
+    from kinder_bench.baselines.fm_planning.prompts import format_call, format_state, plan_calls
+    from kinder_bench.runner import agent_seed, episode_seeds
+    from kinder_core import make_object_centric
+
+    env = make_object_centric(env_id)
+    answers: dict[str, str] = {}
+    for i, env_seed in enumerate(episode_seeds(run_seed, episodes)):
+        x0, _ = env.reset(seed=env_seed)
+        plan, _ = plan_episode(env, x0, seed=agent_seed(run_seed, i))
+        lines = [] if plan is None else [format_call(c, x0) for c in plan_calls(plan.skills)]
+        answers[format_state(x0)] = "Scripted from bilevel planning.\nPlan:\n" + "\n".join(lines)
+    return answers
+
+
+def table_responder(answers: dict[str, str]) -> Responder:
+    """A responder answering with the entry whose initial-state table the prompt holds (after
+    its in-context examples, which hold other tables)."""
+
+    def respond(request: dict[str, Any]) -> str:
+        tail = _prompt_text(request).rsplit("from an initial state described below.", 1)[-1]
+        hits = [a for table, a in answers.items() if table in tail]
+        if len(hits) != 1:
+            raise LookupError(
+                f"the prompt holds {len(hits)} of the {len(answers)} scripted initial states"
+            )
+        return hits[0]
+
+    return respond
