@@ -26,8 +26,9 @@ What each episode records (:meth:`episode_info`, the record's ``agent_info``): t
 plan with every dropped line and why, clipped parameters, the executed skills with their step
 counts, the failure reason, the episode's model-call timeout; and, under ``runtime`` (wall-clock
 and cache facts that differ between a live run and its cache replay), the model-call time, the
-agent's own time excluding the model call (``overhead_time``), whether the answer was cached and
-the number of HTTP attempts.
+agent's own time excluding the model call (``overhead_time``: building the prompt and the image,
+``prompt_time``; parsing, ``parse_time``; and every ``act``, i.e. running the skills'
+controllers), whether the answer was cached and the number of HTTP attempts.
 
 Deviations from the upstream agent: the model's seed parameter is the episode's agent seed
 (upstream: the run seed); the parameter meanings are in the prompt (see :mod:`.prompts`);
@@ -185,6 +186,8 @@ class FMPlanningAgent(Agent[FMPlanArgs]):
         runtime: dict[str, Any] = {
             "model_time": 0.0,
             "overhead_time": 0.0,
+            "prompt_time": 0.0,
+            "parse_time": 0.0,
             "cached": None,
             "attempts": 0,
         }
@@ -200,6 +203,7 @@ class FMPlanningAgent(Agent[FMPlanArgs]):
         try:
             state = self.observed_state(obs)
             prompt, messages = self.prompt_messages(state)
+            runtime["prompt_time"] = time.perf_counter() - start
             self.info["prompt_chars"] = len(prompt)
             self.info["prompt_tokens_estimate"] = estimate_tokens(prompt)
             request = self.client.make_request(
@@ -220,7 +224,9 @@ class FMPlanningAgent(Agent[FMPlanArgs]):
             self.info["finish_reason"] = response.finish_reason
             self.info["request_key"] = response.key
             self.info["answer_chars"] = len(response.text)
+            t_parse = time.perf_counter()
             parsed = parse_plan(response.text, self.planning_model, state)
+            runtime["parse_time"] = time.perf_counter() - t_parse
             self.info["plan"] = parsed.to_record()
             if not parsed.calls:
                 why = "no 'Plan:' line" if not parsed.found_plan else "no valid plan line"
