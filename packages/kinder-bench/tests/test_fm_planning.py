@@ -459,3 +459,20 @@ def test_cache_only_miss_is_a_recorded_failure(tmp_path: Path) -> None:
     assert not r["success"] and r["error_in"] == "agent"
     assert "cache-only mode: no cached response for request" in r["error"]
     assert r["agent_info"]["failure"] == r["error"].split(": ", 1)[1]
+
+
+def test_skill_env_runs_bilevel_plans_on_a_registered_box_env() -> None:
+    from kinder_bench.envs import make_env
+    from kinder_gym.skill_env import SkillEnv, run_plan
+
+    env_id = "kinder/StickButton2D-b1-v0"
+    model_env = make_object_centric(env_id)
+    senv = SkillEnv(make_env(env_id))
+    for seed in (0, 1):
+        x0, _ = model_env.reset(seed=seed)
+        plan, _ = plan_episode(model_env, x0, seed=seed)
+        assert plan is not None
+        obs, _ = senv.reset(seed=seed)
+        assert obs.shape == senv.observation_space.shape
+        ok, steps, infos = run_plan(senv, plan_calls(plan.skills))
+        assert ok and steps == len(plan.actions), infos

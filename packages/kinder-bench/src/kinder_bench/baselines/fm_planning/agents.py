@@ -275,11 +275,15 @@ class FMPlanningAgent(Agent[FMPlanArgs]):
             except (InvalidSkillCall, SkillFailure) as e:
                 self._execution = None
                 self._fail(f"skill {self._current} failed to start: {e}")
+            except Exception as e:  # a controller bug or assertion: still this plan's failure
+                self._execution = None
+                self._fail(f"skill {self._current} raised {type(e).__name__} at start: {e}")
             self._execution = execution
         try:
             action = execution.next_action()
-        except SkillFailure as e:
-            self._fail(f"skill {self._current} failed after {execution.steps} step(s): {e}")
+        except Exception as e:  # SkillFailure, or a controller's own error
+            kind = "" if isinstance(e, SkillFailure) else f" ({type(e).__name__})"
+            self._fail(f"skill {self._current} failed after {execution.steps} step(s){kind}: {e}")
         return self.clip(action)
 
     def _log_executed(self, execution: SkillExecution) -> None:
