@@ -19,7 +19,7 @@ import pytest
 
 from kinder_bench.agents import AGENTS, agent_class, describe_args, make_agent
 from kinder_bench.agents.base import AgentFailure
-from kinder_bench.baselines.bilevel_planning import use_model
+from kinder_bench.baselines.bilevel_planning import plan_episode, use_model
 from kinder_bench.baselines.fm_planning.agents import FMPlanningAgent
 from kinder_bench.baselines.fm_planning.client import CacheMiss, ChatClient, ChatError
 from kinder_bench.baselines.fm_planning.parser import parse_plan
@@ -28,6 +28,7 @@ from kinder_bench.baselines.fm_planning.prompts import (
     format_call,
     format_state,
     make_examples,
+    plan_calls,
     render_examples,
 )
 from kinder_bench.baselines.fm_planning.scripted_server import (
