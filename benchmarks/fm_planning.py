@@ -15,6 +15,8 @@ building, parsing and running the skills' controllers), with its prompt and pars
     uv run python benchmarks/fm_planning.py sizes --out benchmarks/results/fm_prompt_sizes.json
     uv run python benchmarks/fm_planning.py overhead --episodes 10 \
         --out benchmarks/results/fm_overhead.json
+    uv run python benchmarks/fm_planning.py table --inputs benchmarks/results/fm_prompt_sizes.json \
+        benchmarks/results/fm_overhead.json
 """
 
 from __future__ import annotations
@@ -112,15 +114,50 @@ def overhead(envs: list[str], episodes: int) -> list[dict[str, Any]]:
     return rows
 
 
+def tables(sizes_path: Path, overhead_paths: list[Path]) -> str:
+    """The two markdown tables of the README from the JSON files."""
+    out = [
+        "| env | LLMPlan prompt chars | ≈ tokens | LLMCon prompt chars | ≈ tokens | examples "
+        "| image | ≈ image tokens |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in json.loads(sizes_path.read_text()):
+        out.append(
+            f"| {r['env_id']} | {r['plan_chars']} | {r['plan_tokens_est']} | {r['con_chars']} "
+            f"| {r['con_tokens_est']} | {r['con_examples']} | {r['image']} "
+            f"| {r['image_tokens_est']} |"
+        )
+    out += [
+        "",
+        "| env | episodes | oracle SR | steps | overhead s (mean) | overhead s (max) "
+        "| prompt ms | parse ms |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for path in overhead_paths:
+        for r in json.loads(path.read_text()):
+            out.append(
+                f"| {r['env_id']} | {r['episodes']} | {r['success']:.2f} | {r['steps_mean']:.1f} "
+                f"| {r['overhead_mean']:.3f} | {r['overhead_max']:.3f} "
+                f"| {1000 * r['prompt_time_mean']:.2f} | {1000 * r['parse_time_mean']:.2f} |"
+            )
+    return "\n".join(out)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("what", choices=["sizes", "overhead"])
+    parser.add_argument("what", choices=["sizes", "overhead", "table"])
     parser.add_argument("--env", action="append", help="env id (repeatable); default: see below")
     parser.add_argument("--episodes", type=int, default=10)
     parser.add_argument("--num-examples", type=int, default=4)
     parser.add_argument("--cache", type=Path, default=Path("runs/fm_cache"))
-    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--out", type=Path, help="JSON file to write (sizes, overhead)")
+    parser.add_argument("--inputs", type=Path, nargs="*", help="table: sizes JSON, overhead JSONs")
     a = parser.parse_args()
+    if a.what == "table":
+        print(tables(a.inputs[0], a.inputs[1:]))
+        return
+    if a.out is None:
+        parser.error("--out is required for sizes and overhead")
     if a.what == "sizes":
         rows = sizes(a.env or list(PAPER_ENVS), a.cache, a.num_examples)
     else:
