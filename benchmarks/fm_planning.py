@@ -7,16 +7,25 @@ cached under ``--cache``), and the VLM image (size and OpenAI's documented high-
 formula for GPT-4o-class models: 85 + 170 per 512-px tile after scaling into 2048² and the short
 side to 768; a different model may count differently).
 
-``overhead``: runs the ``llm_plan`` agent with the runner on the given envs, answered by the
-scripted local server with the bilevel planner's plans (the oracle of the tests), and reports the
-agent's own time per episode excluding the model call (``agent_info.runtime.overhead_time``: prompt
-building, parsing and running the skills' controllers), with its prompt and parse parts.
+``overhead``: runs the ``llm_plan`` agent (or ``--agent vlm_plan``) with the runner on the given
+envs, answered by the scripted local server with the bilevel planner's plans (the oracle of the
+tests), and reports the agent's own time per episode excluding the model call
+(``agent_info.runtime.overhead_time``: prompt and image building, parsing and running the skills'
+controllers), with its prompt and parse parts.
 
     uv run python benchmarks/fm_planning.py sizes --out benchmarks/results/fm_prompt_sizes.json
     uv run python benchmarks/fm_planning.py overhead --episodes 10 \
         --out benchmarks/results/fm_overhead.json
+    uv run python benchmarks/fm_planning.py overhead --episodes 5 --env kinder/DynObstruction2D-o1-v0 \
+        --env kinder/DynPushPullHook2D-o5-v0 --env kinder/Transport3D-o2-v0 \
+        --env kinder/Shelf3D-o1-v0 --env kinder/SweepIntoDrawer3D-o5-v0 \
+        --out benchmarks/results/fm_overhead_more.json
+    uv run python benchmarks/fm_planning.py overhead --agent vlm_plan --episodes 5 \
+        --env kinder/Motion2D-p0-v0 --env kinder/StickButton2D-b1-v0 --env kinder/BaseMotion3D-v0 \
+        --env kinder/Shelf3D-o1-v0 --out benchmarks/results/fm_overhead_vlm.json
     uv run python benchmarks/fm_planning.py table --inputs benchmarks/results/fm_prompt_sizes.json \
-        benchmarks/results/fm_overhead.json
+        benchmarks/results/fm_overhead.json benchmarks/results/fm_overhead_more.json \
+        benchmarks/results/fm_overhead_vlm.json
 """
 
 from __future__ import annotations
@@ -85,14 +94,14 @@ def sizes(envs: list[str], cache: Path, num_examples: int) -> list[dict[str, Any
     return rows
 
 
-def overhead(envs: list[str], episodes: int) -> list[dict[str, Any]]:
+def overhead(envs: list[str], episodes: int, agent: str) -> list[dict[str, Any]]:
     rows = []
     for env_id in envs:
         answers = oracle_answers(env_id, 0, episodes)
         with tempfile.TemporaryDirectory() as tmp, ChatServer(table_responder(answers)) as server:
             args = {"base_url": server.base_url, "cache_dir": str(Path(tmp) / "cache")}
             records = run_benchmark(
-                [RunConfig(env_id, "llm_plan", args, seeds=(0,), episodes=episodes)],
+                [RunConfig(env_id, agent, args, seeds=(0,), episodes=episodes)],
                 Path(tmp) / "run",
                 executor="inline",
                 progress=False,
@@ -100,6 +109,7 @@ def overhead(envs: list[str], episodes: int) -> list[dict[str, Any]]:
         rt = [r["agent_info"]["runtime"] for r in records]
         row = {
             "env_id": env_id,
+            "agent": agent,
             "episodes": len(records),
             "success": sum(r["success"] for r in records) / len(records),
             "steps_mean": statistics.mean(r["steps"] for r in records),
@@ -129,14 +139,15 @@ def tables(sizes_path: Path, overhead_paths: list[Path]) -> str:
         )
     out += [
         "",
-        "| env | episodes | oracle SR | steps | overhead s (mean) | overhead s (max) "
+        "| env | agent | episodes | oracle SR | steps | overhead s (mean) | overhead s (max) "
         "| prompt ms | parse ms |",
-        "|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for path in overhead_paths:
         for r in json.loads(path.read_text()):
             out.append(
-                f"| {r['env_id']} | {r['episodes']} | {r['success']:.2f} | {r['steps_mean']:.1f} "
+                f"| {r['env_id']} | {r.get('agent', 'llm_plan')} | {r['episodes']} "
+                f"| {r['success']:.2f} | {r['steps_mean']:.1f} "
                 f"| {r['overhead_mean']:.3f} | {r['overhead_max']:.3f} "
                 f"| {1000 * r['prompt_time_mean']:.2f} | {1000 * r['parse_time_mean']:.2f} |"
             )
@@ -148,6 +159,7 @@ def main() -> None:
     parser.add_argument("what", choices=["sizes", "overhead", "table"])
     parser.add_argument("--env", action="append", help="env id (repeatable); default: see below")
     parser.add_argument("--episodes", type=int, default=10)
+    parser.add_argument("--agent", default="llm_plan", help="overhead: llm_plan or vlm_plan")
     parser.add_argument("--num-examples", type=int, default=4)
     parser.add_argument("--cache", type=Path, default=Path("runs/fm_cache"))
     parser.add_argument("--out", type=Path, help="JSON file to write (sizes, overhead)")
@@ -162,7 +174,7 @@ def main() -> None:
         rows = sizes(a.env or list(PAPER_ENVS), a.cache, a.num_examples)
     else:
         default = ["kinder/Motion2D-p0-v0", "kinder/StickButton2D-b1-v0", "kinder/BaseMotion3D-v0"]
-        rows = overhead(a.env or default, a.episodes)
+        rows = overhead(a.env or default, a.episodes, a.agent)
     a.out.parent.mkdir(parents=True, exist_ok=True)
     write_json(a.out, rows)
 

@@ -83,7 +83,7 @@ class FMPlanArgs:
     """Sampling temperature (the paper: 1); None: the endpoint's default."""
     max_tokens: int | None = None
     """Most tokens of the answer (``max_completion_tokens``); None: the endpoint's limit."""
-    cache_dir: str = "fm_cache"
+    cache_dir: str = "runs/fm_cache"
     """Where answers (and generated in-context examples) are cached."""
     cache_mode: str = "use"
     """``use`` (cache, ask on a miss), ``only`` (replay: a miss fails the episode) or ``off``."""

@@ -109,7 +109,7 @@ class ChatClient:
         base_url: str | None = None,
         api_key: str | None = None,
         api_key_env: str = "OPENAI_API_KEY",
-        cache_dir: str | Path = "fm_cache",
+        cache_dir: str | Path = "runs/fm_cache",
         cache_mode: str = "use",
         max_retries: int = 6,
         backoff: float = 2.0,
