@@ -17,7 +17,8 @@ controllers), with its prompt and parse parts.
     uv run python benchmarks/fm_planning.py overhead --episodes 10 \
         --out benchmarks/results/fm_overhead.json
     uv run python benchmarks/fm_planning.py overhead --episodes 5 \
-        --env kinder/DynObstruction2D-o1-v0 --env kinder/DynPushPullHook2D-o5-v0 --env kinder/Transport3D-o2-v0 \
+        --env kinder/DynObstruction2D-o1-v0 --env kinder/DynPushPullHook2D-o5-v0 \
+        --env kinder/Transport3D-o2-v0 \
         --env kinder/Shelf3D-o1-v0 --env kinder/SweepIntoDrawer3D-o5-v0 \
         --out benchmarks/results/fm_overhead_more.json
     uv run python benchmarks/fm_planning.py overhead --agent vlm_plan --episodes 5 \
