@@ -19,6 +19,7 @@ import pytest
 
 from kinder_bench.agents import AGENTS, agent_class, describe_args, make_agent
 from kinder_bench.agents.base import AgentFailure
+from kinder_bench.agents.random_agent import RandomAgent
 from kinder_bench.baselines.bilevel_planning import plan_episode, use_model
 from kinder_bench.baselines.fm_planning.agents import FMPlanningAgent
 from kinder_bench.baselines.fm_planning.client import CacheMiss, ChatClient, ChatError
@@ -477,3 +478,23 @@ def test_skill_env_runs_bilevel_plans_on_a_registered_box_env() -> None:
         assert obs.shape == senv.observation_space.shape
         ok, steps, infos = run_plan(senv, plan_calls(plan.skills))
         assert ok and steps == len(plan.actions), infos
+
+
+class _BadInfoAgent(RandomAgent):
+    """Reports a NaN, which cannot go into a JSON line."""
+
+    name = "bad_info"
+
+    def episode_info(self) -> dict[str, Any]:
+        return {"x": float("nan")}
+
+
+def test_runner_keeps_the_episode_when_agent_info_is_not_json(toy_id: str, tmp_path: Path) -> None:
+    (record,) = run_benchmark(
+        [RunConfig(toy_id, f"{__name__}:_BadInfoAgent", seeds=(0,), episodes=1)],
+        tmp_path,
+        executor="inline",
+        progress=False,
+    ).records
+    assert "agent_info" not in record
+    assert record["agent_info_error"].startswith("ValueError: Out of range float values")

@@ -166,8 +166,12 @@ class ChatClient:
         key = request_key(request)
         path = self.cache_path(key)
         if self.cache_mode != "off" and path.exists():
-            stored = json.loads(path.read_text())
-            resp = stored["response"]
+            try:
+                resp = json.loads(path.read_text())["response"]
+            except (json.JSONDecodeError, KeyError, TypeError) as e:
+                raise ChatError(
+                    f"the cached response {path} is not a cache entry ({e}); delete it to ask again"
+                ) from e
             return ChatResponse(
                 text=resp["text"],
                 usage={k: int(v) for k, v in resp.get("usage", {}).items()},

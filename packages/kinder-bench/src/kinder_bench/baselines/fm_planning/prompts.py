@@ -26,7 +26,8 @@ parameters rounded to :data:`EXAMPLE_DECIMALS` decimals. An example is kept only
 plan, parsed back and executed with :class:`~kinder_gym.skill_env.SkillEnv` on a fresh env,
 reaches the goal. Examples are made once per env (in the agent's constructor, which the runner
 does not time: they play the role of the upstream's prepared files) and cached on disk under the
-agent's cache directory.
+agent's cache directory, keyed by the env id, the settings and the kinder-gym and kinder-bench
+versions; delete ``<cache_dir>/examples`` to make them again after changing a planning model.
 """
 
 from __future__ import annotations
@@ -324,12 +325,13 @@ def make_examples(
     ``max_tries`` (default ``3·num``) candidate seeds."""
     if num <= 0:
         return []
-    from kinder_gym import __version__ as gym_version
+    from kinder_bench.results import package_versions
 
     tries = max_tries if max_tries is not None else 3 * num
-    key = hashlib.sha256(
-        json.dumps([env_id, num, planning_timeout, tries, EXAMPLE_DECIMALS, gym_version]).encode()
-    ).hexdigest()[:16]
+    versions = package_versions()
+    settings = [env_id, num, planning_timeout, tries, EXAMPLE_DECIMALS]
+    settings += [versions.get("kinder-gym"), versions.get("kinder-bench")]
+    key = hashlib.sha256(json.dumps(settings).encode()).hexdigest()[:16]
     path = None
     if cache_dir is not None:
         path = Path(cache_dir) / "examples" / f"{env_id.replace('/', '_')}__{key}.json"
