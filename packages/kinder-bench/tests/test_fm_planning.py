@@ -183,6 +183,9 @@ def test_client_caches_by_the_full_request(tmp_path: Path) -> None:
         CacheMiss, match=r"cache-only mode: no cached response for request [0-9a-f]{64}.*'hi'"
     ):
         replay.complete(replay.make_request(msgs, 1.0, seed=5))
+    client.cache_path(first.key).write_text("{")
+    with pytest.raises(ChatError, match="is not a cache entry"):
+        replay.complete(replay.make_request(msgs, 1.0, seed=3))
 
 
 def test_client_retries_transient_errors_only(tmp_path: Path) -> None:
