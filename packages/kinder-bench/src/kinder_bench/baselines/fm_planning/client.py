@@ -11,7 +11,8 @@ server that wants no key gets a placeholder).
 atomically (temporary file + rename), holding the request and the response (text, token usage,
 finish reason). Modes: ``use`` (read the cache, ask the endpoint on a miss and store the
 answer), ``only`` (never open a connection; a miss raises :class:`CacheMiss` naming the request)
-and ``off`` (always ask, store nothing).
+and ``off`` (always ask, store nothing). A request with an image is keyed by the image's bytes,
+so replaying it needs the same rendering.
 
 **Retries.** Rate limits (429), timeouts, connection errors and server errors (5xx) are retried
 with exponential backoff (``backoff · 2^attempt`` seconds, or the server's ``Retry-After`` when it
