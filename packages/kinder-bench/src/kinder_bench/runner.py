@@ -31,7 +31,7 @@ from typing import Any
 import gymnasium
 import numpy as np
 
-from kinder_bench.agents import agent_class, args_to_dict, make_agent, make_args
+from kinder_bench.agents import Agent, agent_class, args_to_dict, make_agent, make_args
 from kinder_bench.envs import default_max_steps, make_env, resolve_env_id, short_id
 from kinder_bench.executors import execute
 from kinder_bench.protocol import PAPER_EPISODES, PAPER_MAX_STEPS, PAPER_SEEDS
@@ -241,6 +241,7 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
     trace: str | None = None
     frames: list[Any] | None = [] if task.video_path else None
     phase = "setup"
+    agent: Agent[Any] | None = None
     try:
         import_modules(task.imports)
         env = _env_for(task.env_id, task.max_steps)
@@ -285,6 +286,14 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         error = f"{type(e).__name__}: {e}"
         error_in = phase
         trace = traceback.format_exc()[-4000:]
+    if agent is not None:
+        try:
+            agent_info = agent.episode_info()
+            if agent_info:
+                json.dumps(agent_info, allow_nan=False)  # must survive the JSON line
+                record["agent_info"] = agent_info
+        except Exception as e:  # the agent's report must not lose the episode's result
+            record["agent_info_error"] = f"{type(e).__name__}: {e}"
     reward: float | None = total_reward
     if not np.isfinite(total_reward):  # would not survive JSON, and is an env bug anyway
         success, reward = False, None

@@ -7,6 +7,8 @@
   collision checkers.
 * :mod:`kinder_gym.model`: :class:`PlanningModel`, everything a planner needs about one env.
 * :mod:`kinder_gym.models`: the per-family models (``create_model(env)``).
+* :mod:`kinder_gym.skill_env`: skill-level control (``SkillCall``, ``SkillExecution``, the
+  Gymnasium ``SkillEnv`` whose action is one skill run to its end).
 """
 
 from kinder_gym.concepts import (

@@ -32,6 +32,10 @@ AGENTS: dict[str, str] = {
     "random": "kinder_bench.agents.random_agent:RandomAgent",
     "mpc": "kinder_bench.agents.mpc:MPCAgent",
     "bilevel_planning": "kinder_bench.baselines.bilevel_planning:BilevelPlanningAgent",
+    "llm_plan": "kinder_bench.baselines.fm_planning.agents:LLMPlanAgent",
+    "vlm_plan": "kinder_bench.baselines.fm_planning.agents:VLMPlanAgent",
+    "llm_con": "kinder_bench.baselines.fm_planning.agents:LLMConAgent",
+    "vlm_con": "kinder_bench.baselines.fm_planning.agents:VLMConAgent",
     "vla": "kinder_bench.baselines.vla:VLAAgent",
 }
 
@@ -141,14 +145,18 @@ def args_to_dict(args: Any) -> dict[str, Any]:
 
 
 def field_docs(args_cls: type[Any]) -> dict[str, str]:
-    """The docstrings written under each field of a dataclass (CleanRL style)."""
+    """The docstrings written under each field of a dataclass (CleanRL style), inherited ones
+    included."""
+    docs: dict[str, str] = {}
+    for base in reversed(args_cls.__mro__[1:]):
+        if dataclasses.is_dataclass(base):
+            docs.update(field_docs(base))
     try:
         source = textwrap.dedent(inspect.getsource(args_cls))
     except (OSError, TypeError):
-        return {}
+        return docs
     body = ast.parse(source).body[0]
     assert isinstance(body, ast.ClassDef)
-    docs: dict[str, str] = {}
     stmts = body.body
     for stmt, nxt in itertools.pairwise(stmts):
         if (

@@ -127,6 +127,11 @@ class Agent(abc.ABC, Generic[ArgsT]):
         """Start an episode from its first observation and info."""
         del obs, info
 
+    def episode_info(self) -> dict[str, Any]:
+        """Per-episode facts the runner stores in the record's ``agent_info`` (JSON-able; called
+        after the episode, also when it ended in an error). Default: nothing."""
+        return {}
+
     @abc.abstractmethod
     def act(self, obs: Any) -> NDArray[np.float64]:
         """The action for the current observation."""
