@@ -31,7 +31,13 @@ def msg(
         "seq": seq,
         "device": "script",
         "engaged": list(engaged),
-        "poses": {"base": {"p": [0.0, 1.0, extra.pop("z", 0.0)], "q": [0.0, 0.0, 0.0, 1.0]}},
+        "poses": {
+            "base": {
+                "grab": extra.pop("grab", 1),
+                "p": [0.0, 0.0, extra.pop("z", 0.0)],
+                "q": [0.0, 0.0, 0.0, 1.0],
+            }
+        },
         **extra,
     }
     if sent is not None:
@@ -103,8 +109,9 @@ def test_clutch_deadman_stale_and_malformed(teleop: WebTeleop) -> None:
         hello = reply(ws, "hello")
         assert hello["env_id"] == ENV_ID and "overview" in hello["cameras"]
         start = base(teleop)
-        # Engage the base clutch at z = 0, then move the device 0.2 m forward (WebXR −z).
-        assert reply_to(ws, msg(0, 1000.0, z=0.0))["type"] == "ack"
+        # Grab 1 of the base clutch: the device reports 0.1 m forward (WebXR −z) already in its
+        # first message (the grab is anchored where it began), then 0.2 m.
+        assert reply_to(ws, msg(0, 1000.0, z=-0.1))["type"] == "ack"
         teleop.loop.tick()
         assert reply_to(ws, msg(1, 1001.0, z=-0.2))["type"] == "ack"
         for _ in range(6):
@@ -131,10 +138,13 @@ def test_clutch_deadman_stale_and_malformed(teleop: WebTeleop) -> None:
         assert reply_to(ws, msg(6, 1003.0, engaged=(), z=-1.0))["type"] == "ack"
         teleop.loop.tick()
         assert teleop.loop.status.paused and teleop.loop.status.step == steps + 1
-        # Re-engaging far away does not jump: motion is relative to the new grasp.
-        assert reply_to(ws, msg(7, 1004.0, z=-1.0))["type"] == "ack"
+        # A new grab starts from where the robot is: no jump, then 0.05 m more.
+        assert reply_to(ws, msg(7, 1004.0, grab=2, z=0.0))["type"] == "ack"
         teleop.loop.tick()
         assert base(teleop)[0] == pytest.approx(start[0] + 0.2, abs=1e-6)
+        assert reply_to(ws, msg(8, 1004.0, grab=2, z=-0.05))["type"] == "ack"
+        teleop.loop.tick()
+        assert base(teleop)[0] == pytest.approx(start[0] + 0.25, abs=1e-6)
         # A sample older than max_age (server clock) counts as released.
         clock.t += 0.3
         teleop.loop.tick()
@@ -144,7 +154,7 @@ def test_clutch_deadman_stale_and_malformed(teleop: WebTeleop) -> None:
         assert reply(ws)["type"] == "event_ack"
         teleop.loop.tick()
         saved: list[EpisodeRecord] = teleop.saved_records  # type: ignore[attr-defined]
-        assert len(saved) == 1 and saved[0].num_steps == steps + 2 and not saved[0].terminated
+        assert len(saved) == 1 and saved[0].num_steps == steps + 3 and not saved[0].terminated
         assert teleop.loop.status.seed == 1
     # The status the page shows reaches the hub.
     teleop.after_tick()

@@ -12,9 +12,9 @@ line never needs the device's library:
 * ``axes``: values in [−1, 1], y axes positive *up*: ``pad_lx``, ``pad_ly``, ``pad_rx``,
   ``pad_ry``, ``pad_lt``, ``pad_rt`` (triggers, 0 … 1) and the on-screen mouse sticks
   ``mouse_lx`` … ``mouse_ry``.
-* ``poses``: clutch channels of the web app (``"arm"``, ``"base"``), each a :class:`Pose` in the
-  WebXR frame (+x right, +y up, +z towards the user); ``engaged`` names the channels whose clutch
-  (finger or grip) is held now.
+* ``poses``: clutch channels of the web app (``"arm"``, ``"base"``), each the device's motion
+  since the current grab began, a :class:`Pose` in the WebXR frame (+x right, +y up, +z towards
+  the user); ``engaged`` names the channels whose clutch (finger or grip) is held now.
 * ``scalars``: e.g. ``"gripper"`` in [0, 1] (1 = closed) from the phone slider or the XR trigger.
 """
 
@@ -29,10 +29,15 @@ EPISODE_EVENTS = ("save", "discard", "reset", "next", "quit")
 
 @dataclasses.dataclass(frozen=True)
 class Pose:
-    """A rigid pose: position ``p`` (m) and unit quaternion ``q`` ordered (x, y, z, w)."""
+    """A rigid pose: position ``p`` (m) and unit quaternion ``q`` ordered (x, y, z, w).
+
+    For clutch channels it is the device's motion since the grab numbered ``grab`` began (the
+    device computes it, so a grab is anchored where the finger or grip went down however late its
+    first message arrives); a new ``grab`` number re-captures the robot's reference."""
 
     p: tuple[float, float, float]
     q: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
+    grab: int = 0
 
 
 @dataclasses.dataclass(frozen=True)

@@ -21,14 +21,15 @@ over the next ticks.
 
 Two kinds of input drive the targets:
 
-* **Clutch poses** (web app: phone touch pads, WebXR controllers). Channel ``"base"`` and
-  ``"arm"`` each carry a device pose in the WebXR frame (+x right, +y up, +z back). On the tick a
-  channel engages, the device pose and the robot's pose are captured as references; afterwards
-  the target is the robot reference moved by the device's motion since then (1:1 times
-  ``scale``), converted by :func:`webxr_to_robot` (WebXR forward −z → robot +x, left −x → +y, up
-  +y → +z), relative to the robot's heading at engagement. Releasing a channel sets its target to
-  the measured pose (the robot holds still) and forgets the references, so re-grasping never
-  jumps. With no channel engaged the deadman is released: the loop pauses.
+* **Clutch poses** (web app: phone touch pads, WebXR controllers). Channels ``"base"`` and
+  ``"arm"`` each carry the device's motion since the current grab began (a
+  :class:`~kinder_gym.teleop.inputs.Pose` in the WebXR frame, computed by the device so the grab
+  is anchored where the finger or grip went down). The first tick that sees a grab number captures
+  the robot's pose as reference; the target is that reference moved by the device motion (1:1
+  times ``scale``), converted by :func:`webxr_to_robot` (WebXR forward −z → robot +x, left −x →
+  +y, up +y → +z) and taken relative to the robot's heading at the grab. Releasing a channel
+  sets its target to the measured pose (the robot holds still); a new grab starts from there, so
+  re-grasping never jumps. With no channel engaged the deadman is released: the loop pauses.
 * **Velocities** (keyboard and gamepad fallback, :data:`BINDINGS_3D`): the base moves in its own
   frame, the end effector in the base frame; the end-effector target may lead the measured hand
   by at most ``Limits.ee_lead`` so it never runs away when blocked.
@@ -46,7 +47,6 @@ from gymnasium import spaces
 
 from kinder_core import ObjectCentricEnv
 from kinder_garden3d.kinematic3d.geometry import (
-    quat_conjugate,
     quat_multiply,
     quat_yaw,
     yaw_quat,
@@ -154,7 +154,7 @@ def ee_pose_in_base(arm: FloatArray) -> tuple[FloatArray, FloatArray]:
 
 @dataclasses.dataclass
 class _Clutch:
-    device: tuple[FloatArray, FloatArray]
+    grab: int
     robot: tuple[FloatArray, FloatArray]
 
 
@@ -257,17 +257,19 @@ class TidyBotTeleop:
                     del self._clutch[channel]
                     self._hold(base, arm, (channel,))
                 continue
-            dev_p, dev_q = webxr_to_robot(s.poses[channel])
-            if channel not in self._clutch:
+            pose = s.poses[channel]
+            dp, dq = webxr_to_robot(pose)
+            dp = dp * self.scale
+            ref = self._clutch.get(channel)
+            if ref is None or ref.grab != pose.grab:
+                if ref is not None:  # a new grab without a release in between: hold first
+                    self._hold(base, arm, (channel,))
                 robot_ref = (
                     (base.copy(), yaw_quat(float(base[2])))
                     if channel == "base"
-                    else ee_pose_in_base(arm)
+                    else (self.ee_p.copy(), self.ee_q.copy())
                 )
-                self._clutch[channel] = _Clutch((dev_p, dev_q), robot_ref)
-            ref = self._clutch[channel]
-            dp = (dev_p - ref.device[0]) * self.scale
-            dq = quat_multiply(dev_q, quat_conjugate(ref.device[1]))
+                ref = self._clutch[channel] = _Clutch(pose.grab, robot_ref)
             if channel == "base":
                 yaw0 = float(ref.robot[0][2])
                 c, s_ = math.cos(yaw0), math.sin(yaw0)

@@ -66,7 +66,7 @@ class WebHub:
         self.received = 0
         self.dropped = 0
 
-    # -- connections ------------------------------------------------------------------------------
+    # -- connections -----------------------------------------------------------------------------
     def connect(self) -> int:
         with self._lock:
             cid = next(self._ids)
@@ -116,7 +116,7 @@ class WebHub:
             self.received += 1
             return {"v": VERSION, "type": "ack", "seq": seq}
 
-    # -- the loop's side ----------------------------------------------------------------------------
+    # -- the loop side --------------------------------------------------------------------------
     def poll(self, now: float) -> InputState:
         """The input state for one loop tick (the device interface)."""
         with self._lock:

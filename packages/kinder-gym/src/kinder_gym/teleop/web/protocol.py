@@ -3,12 +3,14 @@
 Client → server:
 
 * ``{"v": 1, "type": "input", "seq": 12, "sent": 1712345678901.5, "device": "phone",
-  "engaged": ["arm"], "poses": {"arm": {"p": [x, y, z], "q": [x, y, z, w]}}, "gripper": 0.4}``
-  — one input sample. ``seq`` increases per connection; ``sent`` is the client's clock in ms;
-  ``device`` is ``"phone"``, ``"xr"`` or ``"script"``; ``engaged`` names the clutch channels held
-  now (``"arm"``, ``"base"``, ``"gripper"``: the deadman); ``poses`` gives each channel's device
-  pose in the WebXR frame (+x right, +y up, +z back, metres, quaternion x, y, z, w); ``gripper``
-  (optional) is the closure in [0, 1]. Only ``v``, ``type`` and ``seq`` are required.
+  "engaged": ["arm"], "poses": {"arm": {"grab": 3, "p": [x, y, z], "q": [x, y, z, w]}},
+  "gripper": 0.4}`` — one input sample. ``seq`` increases per connection; ``sent`` is the
+  client's clock in ms; ``device`` is ``"phone"``, ``"xr"`` or ``"script"``; ``engaged`` names
+  the clutch channels held now (``"arm"``, ``"base"``, ``"gripper"``: the deadman); ``poses``
+  gives, per channel, the device's motion since grab number ``grab`` began (the finger went down
+  or the grip was squeezed), in the WebXR frame (+x right, +y up, +z back, metres, quaternion x,
+  y, z, w); ``gripper`` (optional) is the closure in [0, 1]. Only ``v``, ``type`` and ``seq``
+  are required.
 * ``{"v": 1, "type": "event", "name": "save" | "discard" | "reset"}`` — an episode event.
 
 Server → client:
@@ -79,7 +81,10 @@ def _pose(value: Any, channel: str) -> Pose:
     if abs(norm - 1.0) > 1e-2:
         raise ProtocolError(f"poses.{channel}.q must be a unit quaternion, got norm {norm:.4f}")
     qn = tuple(c / norm for c in q)
-    return Pose((p[0], p[1], p[2]), (qn[0], qn[1], qn[2], qn[3]))
+    grab = value.get("grab", 0)
+    if isinstance(grab, bool) or not isinstance(grab, int) or grab < 0:
+        raise ProtocolError(f"poses.{channel}.grab must be a non-negative integer, got {grab!r}")
+    return Pose((p[0], p[1], p[2]), (qn[0], qn[1], qn[2], qn[3]), grab)
 
 
 def parse_message(text: str | bytes) -> InputMessage | EventMessage:

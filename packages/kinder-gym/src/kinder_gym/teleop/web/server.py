@@ -27,6 +27,7 @@ over plain HTTP.
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import io
 import secrets
 import threading
@@ -119,6 +120,17 @@ def encode_jpeg(image: np.ndarray[Any, Any], quality: int = 80) -> bytes:
     return buffer.getvalue()
 
 
+def set_image_size(env: gymnasium.Env[Any, Any], width: int, height: int) -> None:
+    """Shrink a 3D env's rendered frames (its ``config`` dataclass's ``image_width``/
+    ``image_height``); envs without them keep their size."""
+    model = env.unwrapped
+    config = getattr(model, "config", None)
+    if dataclasses.is_dataclass(config) and not isinstance(config, type):
+        names = {f.name for f in dataclasses.fields(config)}
+        if {"image_width", "image_height"} <= names:
+            model.config = dataclasses.replace(config, image_width=width, image_height=height)  # type: ignore[attr-defined]
+
+
 def render_views(env: gymnasium.Env[Any, Any]) -> dict[str, np.ndarray[Any, Any]]:
     """Every camera of a 3D env (``render_cameras``), else the env's single rendering."""
     model = env.unwrapped
@@ -138,10 +150,13 @@ class WebTeleop:
         hz: Control rate.
         max_age: Staleness limit (s) of input samples.
         limits: Target rate limits of the mapper.
-        frame_every: Render the cameras every this many ticks (0: never).
+        frame_every: Render the cameras every this many ticks (0: never). Rendering runs in the
+            loop thread (the simulators are not thread-safe) and costs about 70–90 ms for all
+            cameras at 320×180 on one CPU core, so it is spread out.
+        frame_size: Width and height of the streamed camera images (set through the env's
+            ``config.image_width``/``image_height`` when it has them).
         clock: Injected clock (tests).
         token: Session token (random by default).
-        env_kwargs: Passed to ``kinder_core.make`` (e.g. image sizes).
     """
 
     def __init__(
@@ -153,12 +168,13 @@ class WebTeleop:
         hz: float = 10.0,
         max_age: float = 0.25,
         limits: Limits | None = None,
-        frame_every: int = 2,
+        frame_every: int = 3,
+        frame_size: tuple[int, int] = (320, 180),
         clock: Clock | None = None,
         token: str | None = None,
-        env_kwargs: dict[str, Any] | None = None,
     ) -> None:
-        self.env = kinder_core.make(env_id, render_mode="rgb_array", **(env_kwargs or {}))
+        self.env = kinder_core.make(env_id, render_mode="rgb_array")
+        set_image_size(self.env, *frame_size)
         self.mapper = TidyBotTeleop(self.env, hz=hz, limits=limits)
         self.hub = WebHub(max_age=max_age, clock=clock.now if clock is not None else None)
         self.loop = TeleopLoop(
