@@ -247,7 +247,7 @@ def read_attempts(out_dir: Path | str) -> list[dict[str, Any]]:
 def kept_attempts(attempts: Sequence[Mapping[str, Any]], episodes: int) -> list[dict[str, Any]]:
     """The first ``episodes`` successful attempts by index, counting only an unbroken prefix of
     indices (a success after a missing index is not kept until the gap is run)."""
-    kept = []
+    kept: list[dict[str, Any]] = []
     for expected, a in enumerate(attempts):
         if int(a["index"]) != expected or len(kept) >= episodes:
             break
@@ -317,7 +317,7 @@ def collect(
             gaps = [i for i in range(frontier) if i not in done]
             successes = sum(1 for a in attempts if a["success"])
             rate = successes / len(attempts) if attempts else 1.0
-            batch = max(1, math.ceil(needed / max(rate, 0.05) * 1.1))
+            batch = max(1, math.ceil(needed / max(rate, 0.05)))
             fresh = list(range(frontier, min(frontier + batch, resolved.max_attempts)))
             indices = gaps + fresh
             if not indices:
@@ -406,15 +406,33 @@ def build_dataset(
             shutil.rmtree(dataset)
     bar = _progress(len(files), progress, f"build {config['env_id']}")
     bar.update(done)
+    started = time.perf_counter()
+    written = frames = 0
     try:
         if done < len(files):
             with DemoWriter(dataset, config["env_id"], images=images) as writer:
                 for path in files[done:]:
-                    writer.add(load_record(path))
+                    record = load_record(path)
+                    writer.add(record)
+                    written += 1
+                    frames += record.num_steps
                     bar.update(1)
     finally:
         bar.close()
+        if written:
+            _log_build(out, written, frames, time.perf_counter() - started, images)
     return len(files)
+
+
+BUILD_LOG = "build.jsonl"
+
+
+def _log_build(out: Path, episodes: int, frames: int, seconds: float, images: bool) -> None:
+    """Append the write speed of one build call to ``<collection>/build.jsonl``."""
+    append_record(
+        out / BUILD_LOG,
+        {"episodes": episodes, "frames": frames, "seconds": seconds, "images": images},
+    )
 
 
 __all__ = [
