@@ -54,7 +54,7 @@ class Teleop2DApp:
         env_id: str,
         *,
         seed: int = 0,
-        save: Callable[[EpisodeRecord], None] | None = None,
+        save: Callable[[EpisodeRecord], object] | None = None,
         hz: float = 20.0,
         clock: Clock | None = None,
         height: int = 540,

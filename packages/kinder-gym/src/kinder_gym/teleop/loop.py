@@ -127,7 +127,7 @@ class TeleopLoop:
         mapper: Mapper,
         poll: Callable[[float], InputState],
         *,
-        save: Callable[[EpisodeRecord], None] | None = None,
+        save: Callable[[EpisodeRecord], object] | None = None,
         seed: int = 0,
         hz: float = 20.0,
         clock: Clock | None = None,
@@ -170,8 +170,9 @@ class TeleopLoop:
 
     def _record(self, note: str) -> EpisodeRecord:
         meta = {"teleop_hz": self.hz, "end": note, **self.metadata}
-        task = getattr(self.env.unwrapped, "task", "")
-        return self.recorder.finish(task=task if isinstance(task, str) else "", metadata=meta)
+        from kinder_gym.demos.lerobot_format import env_task
+
+        return self.recorder.finish(task=env_task(self.env), metadata=meta)
 
     def save_episode(self, note: str = "manual") -> EpisodeRecord | None:
         """Save the current episode (if it has steps) and move on to the next seed."""

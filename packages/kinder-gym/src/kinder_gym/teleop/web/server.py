@@ -157,6 +157,7 @@ class WebTeleop:
             ``config.image_width``/``image_height`` when it has them).
         clock: Injected clock (tests).
         token: Session token (random by default).
+        auto_save: Save successful episodes automatically.
     """
 
     def __init__(
@@ -164,7 +165,7 @@ class WebTeleop:
         env_id: str,
         *,
         seed: int = 0,
-        save: Callable[[EpisodeRecord], None] | None = None,
+        save: Callable[[EpisodeRecord], object] | None = None,
         hz: float = 10.0,
         max_age: float = 0.25,
         limits: Limits | None = None,
@@ -172,6 +173,7 @@ class WebTeleop:
         frame_size: tuple[int, int] = (320, 180),
         clock: Clock | None = None,
         token: str | None = None,
+        auto_save: bool = True,
     ) -> None:
         self.env = kinder_core.make(env_id, render_mode="rgb_array")
         set_image_size(self.env, *frame_size)
@@ -186,6 +188,7 @@ class WebTeleop:
             seed=seed,
             hz=hz,
             clock=clock,
+            auto_save=auto_save,
             metadata={"device": "web"},
         )
         self.token = token or secrets.token_urlsafe(12)
@@ -266,16 +269,17 @@ def serve(
     env_id: str,
     *,
     seed: int = 0,
-    save: Callable[[EpisodeRecord], None] | None = None,
+    save: Callable[[EpisodeRecord], object] | None = None,
     hz: float = 10.0,
     host: str = "127.0.0.1",
     port: int = 8765,
     ssl_certfile: str | None = None,
     ssl_keyfile: str | None = None,
     max_ticks: int | None = None,
+    auto_save: bool = True,
 ) -> WebTeleop:
     """Run the web app until Ctrl+C (or ``max_ticks``); returns the finished back end."""
-    teleop = WebTeleop(env_id, seed=seed, save=save, hz=hz)
+    teleop = WebTeleop(env_id, seed=seed, save=save, hz=hz, auto_save=auto_save)
     ssl = {}
     if ssl_certfile:
         ssl = {"ssl_certfile": ssl_certfile, "ssl_keyfile": ssl_keyfile}
