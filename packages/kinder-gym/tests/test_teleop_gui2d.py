@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,9 +14,13 @@ os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 pygame = pytest.importorskip("pygame")
 
 import kinder_core  # noqa: E402
+from kinder_gym.demos.lerobot_format import load_records  # noqa: E402
 from kinder_gym.demos.record import EpisodeRecord  # noqa: E402
+from kinder_gym.demos.replay import replay_record  # noqa: E402
+from kinder_gym.demos.store import load_record  # noqa: E402
 from kinder_gym.teleop.gui2d import Teleop2DApp  # noqa: E402
 from kinder_gym.teleop.loop import FakeClock  # noqa: E402
+from kinder_gym.teleop.saving import TeleopSaver  # noqa: E402
 
 ENV_ID = "kinder/Motion2D-p0-v0"
 
@@ -55,7 +60,8 @@ def app():  # type: ignore[no-untyped-def]
     application.close()
 
 
-def test_scripted_keys_solve_motion2d_and_the_demo_replays(app: Teleop2DApp) -> None:
+def solve_by_keys(app: Teleop2DApp) -> EpisodeRecord:
+    """Post the key events that drive Motion2D-p0's robot into its target region."""
     state = app.env.unwrapped.get_state()
     robot = state.get_object_from_name("robot")
     region = state.get_object_from_name("target_region")
@@ -71,16 +77,45 @@ def test_scripted_keys_solve_motion2d_and_the_demo_replays(app: Teleop2DApp) -> 
     app.run(max_ticks=1)  # the key-up tick (no motion): success is reached by now
     saved: list[EpisodeRecord] = app.saved_records  # type: ignore[attr-defined]
     assert len(saved) == 1, app.loop.status.line()
-    record = saved[0]
+    return saved[0]
+
+
+def test_scripted_keys_solve_motion2d_and_the_demo_replays(
+    app: Teleop2DApp, tmp_path: Path
+) -> None:
+    record = solve_by_keys(app)
     assert record.terminated and record.source == "teleop" and record.seed == 0
     assert record.metadata["end"] == "success"
     assert app.loop.status.seed == 1  # moved on to the next seed
     assert replay(record)
+    # Saved through the teleop saver: an atomic episode file that loads back and replays.
+    saver = TeleopSaver(tmp_path / "out", ENV_ID)
+    path = saver(record)
+    assert [p.name for p in saver.files()] == ["episode-000000-seed0.npz"] == [path.name]
+    env = kinder_core.make(ENV_ID)
+    assert replay_record(env, load_record(path)).ok
+    env.close()
     # The window drew the env, the status line and the panel (pixels readable headless).
     pixels = pygame.surfarray.array3d(app.screen)
     assert pixels.shape[0] > app.view_w
     assert len(np.unique(pixels.reshape(-1, 3), axis=0)) > 10
     assert app.frames > 0
+
+
+@pytest.mark.slow
+def test_teleop_demo_into_the_lerobot_dataset_replays(app: Teleop2DApp, tmp_path: Path) -> None:
+    """The LeRobot leg (lerobot and torch imports make it slow: ~50 s on a busy 2-core box)."""
+    record = solve_by_keys(app)
+    saver = TeleopSaver(tmp_path / "out", ENV_ID)
+    saver(record)
+    assert saver.build(images=False) == 1
+    assert saver.build(images=False) == 0  # already in
+    loaded = load_records(saver.dataset_dir)
+    assert len(loaded) == 1 and loaded[0].metadata["episode_file"] == "episode-000000-seed0.npz"
+    np.testing.assert_array_equal(loaded[0].actions, record.actions)
+    env = kinder_core.make(ENV_ID)
+    assert replay_record(env, loaded[0]).ok
+    env.close()
 
 
 def test_mouse_stick_gamepad_and_manual_events(app: Teleop2DApp) -> None:

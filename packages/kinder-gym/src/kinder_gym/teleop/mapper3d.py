@@ -11,7 +11,8 @@ along when the base drives), and a gripper closure in [0, 1]. Each tick:
   clipped to the bounds; the IK is the project's mink solver
   (:class:`kinder_garden3d.robot.ik.InverseKinematics`, fixed base, warm-started from the measured
   joints so the solution stays on its branch), solved only when the target moved. When IK cannot
-  reach a target within 3 cm / 0.2 rad the arm holds (``info["ik_ok"]`` is False);
+  reach a target within 3 cm / 0.2 rad the arm keeps going to the last reachable solution
+  (holding once there; ``info["ik_ok"]`` is False);
 * the gripper command is the family's: Kinematic3D ``−1`` (close) when closure > 0.5 else ``+1``
   (open); Dynamic3D the closure itself (0 open … 1 closed).
 
