@@ -9,9 +9,9 @@ import pytest
 
 pytest.importorskip("kinder_garden3d")
 
-import kinder_core  # noqa: E402
-from kinder_gym.teleop.inputs import InputState, Pose  # noqa: E402
-from kinder_gym.teleop.mapper3d import (  # noqa: E402
+import kinder_core
+from kinder_gym.teleop.inputs import InputState, Pose
+from kinder_gym.teleop.mapper3d import (
     Limits,
     TidyBotTeleop,
     ee_pose_in_base,
@@ -86,7 +86,7 @@ def test_clutch_moves_relative_to_the_grab_and_release_holds(env) -> None:  # ty
     env.reset(seed=0)
     mapper = TidyBotTeleop(env, hz=10)
     _, arm0 = mapper.measured(env)
-    p0, q0 = ee_pose_in_base(arm0)
+    p0, _ = ee_pose_in_base(arm0)
     # The phone moves 5 cm forward (WebXR −z): the hand target moves +5 cm in x.
     for _ in range(5):
         out = mapper(grab("arm", (0.0, 0.0, -0.05)), env)
