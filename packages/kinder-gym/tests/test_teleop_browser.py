@@ -66,7 +66,7 @@ def server() -> Iterator[tuple[WebTeleop, str]]:
     teleop.loop.quit = True
     loop.join(timeout=10)
     http.stop()
-    teleop.env.close()
+    teleop.close()
 
 
 @pytest.fixture(scope="module")

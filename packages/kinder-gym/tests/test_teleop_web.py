@@ -61,7 +61,7 @@ def teleop():  # type: ignore[no-untyped-def]
     t = WebTeleop(ENV_ID, seed=0, save=saved.append, clock=FakeClock(), frame_every=1)
     t.saved_records = saved  # type: ignore[attr-defined]
     yield t
-    t.env.close()
+    t.close()
 
 
 def base(t: WebTeleop) -> np.ndarray:  # type: ignore[type-arg]

@@ -47,7 +47,7 @@ def run_window(
         app = Teleop2DApp(env_id, seed=seed, save=save, hz=hz or DEFAULT_HZ_2D, auto_save=auto_save)
     else:
         from kinder_gym.teleop.mapper3d import BINDINGS_3D, TidyBotTeleop
-        from kinder_gym.teleop.web.server import render_views, set_image_size
+        from kinder_gym.teleop.web.frames import render_views, set_image_size
 
         rate = hz or DEFAULT_HZ_3D
         env = kinder_core.make(env_id, render_mode="rgb_array")

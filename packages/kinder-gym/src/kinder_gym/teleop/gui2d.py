@@ -96,6 +96,11 @@ class Teleop2DApp:
         }
         self.device = PygameInput(sticks, open_controllers=open_controllers)
         self.font = pygame.font.Font(None, 20)
+        self._panel = pygame.Surface((PANEL - 12, 18 * len(bindings)))
+        self._panel.fill(_BG)
+        for i, (key, what) in enumerate(bindings):
+            self._panel.blit(self.font.render(key, True, (250, 210, 120)), (0, 18 * i))
+            self._panel.blit(self.font.render(what, True, _FG), (98, 18 * i))
         self._frame_times: collections.deque[float] = collections.deque(maxlen=60)
         self.frames = 0
 
@@ -115,15 +120,14 @@ class Teleop2DApp:
         """Draw the env view, the panel and the status line, then flip."""
         screen = self.screen
         screen.fill(_BG)
-        frame = np.ascontiguousarray(self._render()[:, :, :3].swapaxes(0, 1))
-        surface = pygame.surfarray.make_surface(frame)
-        screen.blit(pygame.transform.scale(surface, (self.view_w, self.view_h)), (0, 0))
+        frame = np.ascontiguousarray(self._render()[:, :, :3], dtype=np.uint8)
+        surface = pygame.image.frombuffer(frame.data, (frame.shape[1], frame.shape[0]), "RGB")
+        if surface.get_size() != (self.view_w, self.view_h):
+            surface = pygame.transform.scale(surface, (self.view_w, self.view_h))
+        screen.blit(surface, (0, 0))
         x0 = self.view_w + 10
-        y = 10
-        for key, what in self.bindings:
-            screen.blit(self.font.render(key, True, (250, 210, 120)), (x0, y))
-            screen.blit(self.font.render(what, True, _FG), (x0 + 98, y))
-            y += 18
+        y = 10 + 18 * len(self.bindings)
+        screen.blit(self._panel, (x0, 10))
         grip = self.loop.status.info.get("grip")
         if grip is not None:
             text = f"grip: {'ON' if grip else 'off'}"

@@ -150,6 +150,8 @@ class TeleopLoop:
         self.status = TeleopStatus(env_id=env_id, seed=seed)
         self.quit = False
         self.ticks = 0
+        self.total_steps = 0
+        """Env steps over every episode of this loop."""
         self.last_output: MapOutput | None = None
         #: Seconds from a remote message's arrival to its action being applied (recent ones).
         self.latencies: collections.deque[float] = collections.deque(maxlen=10_000)
@@ -222,6 +224,7 @@ class TeleopLoop:
         if out.action is None:
             return self.status
         _, _, terminated, truncated, _ = self.recorder.step(out.action)
+        self.total_steps += 1
         if state.received is not None:
             self.latencies.append(self.clock.now() - state.received)
         self.status.step = self.recorder.num_steps

@@ -65,6 +65,7 @@ class WebHub:
         self._frames: dict[str, bytes] = {}
         self.received = 0
         self.dropped = 0
+        self.frames_set = 0
 
     # -- connections -----------------------------------------------------------------------------
     def connect(self) -> int:
@@ -150,6 +151,7 @@ class WebHub:
     def set_frames(self, frames: dict[str, bytes]) -> None:
         with self._lock:
             self._frames = dict(frames)
+            self.frames_set += 1
 
     def frame(self, camera: str) -> bytes | None:
         with self._lock:

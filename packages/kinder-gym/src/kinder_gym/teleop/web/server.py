@@ -14,8 +14,8 @@ Routes (every one needs ``?token=<session token>``; a wrong token gets 403 / clo
   (squeeze) button is held (the deadman); the right trigger closes the gripper; A saves,
   B discards. The page shows the live camera views (in VR on a panel in front of the user).
 * ``WS /ws`` — the protocol of :mod:`kinder_gym.teleop.web.protocol`.
-* ``GET /frame/{camera}.jpg`` — the newest JPEG of a camera (rendered by the loop thread every
-  ``frame_every`` ticks: pybullet and MuJoCo are not thread-safe).
+* ``GET /frame/{camera}.jpg`` — the newest JPEG of a camera (rendered in a separate process
+  from the loop's newest state, :mod:`kinder_gym.teleop.web.frames`).
 * ``GET /status`` — the loop's status as JSON.
 
 Default bind address 127.0.0.1; pass ``host="0.0.0.0"`` to reach it from a phone on the LAN.
@@ -27,16 +27,12 @@ over plain HTTP.
 from __future__ import annotations
 
 import asyncio
-import dataclasses
-import io
 import secrets
 import threading
 from collections.abc import Callable
 from importlib import resources
 from typing import Any
 
-import gymnasium
-import numpy as np
 from fastapi import FastAPI, HTTPException, Query, WebSocket, WebSocketDisconnect
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 
@@ -44,6 +40,12 @@ import kinder_core
 from kinder_gym.demos.record import EpisodeRecord
 from kinder_gym.teleop.loop import Clock, TeleopLoop
 from kinder_gym.teleop.mapper3d import Limits, TidyBotTeleop
+from kinder_gym.teleop.web.frames import (
+    FrameWorker,
+    jpeg_views,
+    render_views,
+    set_image_size,
+)
 from kinder_gym.teleop.web.hub import WebHub
 from kinder_gym.teleop.web.protocol import VERSION
 
@@ -111,35 +113,6 @@ def create_app(hub: WebHub, token: str, hello: dict[str, Any] | None = None) -> 
     return app
 
 
-def encode_jpeg(image: np.ndarray[Any, Any], quality: int = 80) -> bytes:
-    """JPEG bytes of an H×W×3 uint8 image."""
-    from PIL import Image
-
-    buffer = io.BytesIO()
-    Image.fromarray(np.ascontiguousarray(image[:, :, :3])).save(buffer, "JPEG", quality=quality)
-    return buffer.getvalue()
-
-
-def set_image_size(env: gymnasium.Env[Any, Any], width: int, height: int) -> None:
-    """Shrink a 3D env's rendered frames (its ``config`` dataclass's ``image_width``/
-    ``image_height``); envs without them keep their size."""
-    model = env.unwrapped
-    config = getattr(model, "config", None)
-    if dataclasses.is_dataclass(config) and not isinstance(config, type):
-        names = {f.name for f in dataclasses.fields(config)}
-        if {"image_width", "image_height"} <= names:
-            model.config = dataclasses.replace(config, image_width=width, image_height=height)  # type: ignore[attr-defined]
-
-
-def render_views(env: gymnasium.Env[Any, Any]) -> dict[str, np.ndarray[Any, Any]]:
-    """Every camera of a 3D env (``render_cameras``), else the env's single rendering."""
-    model = env.unwrapped
-    cameras = getattr(model, "render_cameras", None)
-    if callable(cameras):
-        return {str(k): np.asarray(v) for k, v in cameras().items()}
-    return {"view": np.asarray(env.render())}
-
-
 class WebTeleop:
     """The web app's back end: env + 3D mapper + hub + teleop loop + frame publishing.
 
@@ -150,9 +123,11 @@ class WebTeleop:
         hz: Control rate.
         max_age: Staleness limit (s) of input samples.
         limits: Target rate limits of the mapper.
-        frame_every: Render the cameras every this many ticks (0: never). Rendering runs in the
-            loop thread (the simulators are not thread-safe) and costs about 70–90 ms for all
-            cameras at 320×180 on one CPU core, so it is spread out.
+        frame_every: Render the cameras every this many ticks (0: never).
+        frame_process: Render in a separate process (:class:`~.frames.FrameWorker`: control
+            keeps its rate; frames come as fast as they render). Otherwise render in the loop
+            thread every ``frame_every`` ticks (simple and deterministic: tests), which stalls
+            those ticks by the rendering time (about 70–170 ms for three 320×180 cameras).
         frame_size: Width and height of the streamed camera images (set through the env's
             ``config.image_width``/``image_height`` when it has them).
         clock: Injected clock (tests).
@@ -174,9 +149,11 @@ class WebTeleop:
         clock: Clock | None = None,
         token: str | None = None,
         auto_save: bool = True,
+        frame_process: bool = False,
     ) -> None:
         self.env = kinder_core.make(env_id, render_mode="rgb_array")
         set_image_size(self.env, *frame_size)
+        self.frame_worker = FrameWorker(env_id, frame_size) if frame_process else None
         self.mapper = TidyBotTeleop(self.env, hz=hz, limits=limits)
         self.hub = WebHub(max_age=max_age, clock=clock.now if clock is not None else None)
         self.loop = TeleopLoop(
@@ -193,7 +170,7 @@ class WebTeleop:
         )
         self.token = token or secrets.token_urlsafe(12)
         self.frame_every = int(frame_every)
-        self.cameras: list[str] = []
+        self.cameras = sorted(render_views(self.env))
         if self.frame_every > 0:
             self.publish_frames()
         self.publish_status()
@@ -206,9 +183,17 @@ class WebTeleop:
         self.app = create_app(self.hub, self.token, hello)
 
     def publish_frames(self) -> None:
-        views = render_views(self.env)
-        self.cameras = sorted(views)
-        self.hub.set_frames({name: encode_jpeg(img) for name, img in views.items()})
+        """Render (or hand to the frame worker) the cameras' views of the live state."""
+        worker = self.frame_worker
+        if worker is None:
+            self.hub.set_frames(jpeg_views(self.env))
+            return
+        frames = worker.poll()
+        if frames is not None:
+            self.hub.set_frames(frames)
+        model = self.env.unwrapped
+        assert isinstance(model, kinder_core.ObjectCentricEnv)
+        worker.submit(self.loop.status.seed, model.get_state())
 
     def publish_status(self) -> None:
         status = self.loop.status.to_dict()
@@ -220,12 +205,19 @@ class WebTeleop:
 
     def after_tick(self) -> None:
         """Publish status every tick and frames every ``frame_every`` ticks (loop thread)."""
-        if self.frame_every > 0 and self.loop.ticks % self.frame_every == 0:
+        if self.frame_worker is not None or (
+            self.frame_every > 0 and self.loop.ticks % self.frame_every == 0
+        ):
             self.publish_frames()
         self.publish_status()
 
     def run(self, max_ticks: int | None = None) -> None:
         self.loop.run(max_ticks=max_ticks, after_tick=self.after_tick)
+
+    def close(self) -> None:
+        if self.frame_worker is not None:
+            self.frame_worker.close()
+        self.env.close()
 
 
 class ServerThread:
@@ -279,7 +271,7 @@ def serve(
     auto_save: bool = True,
 ) -> WebTeleop:
     """Run the web app until Ctrl+C (or ``max_ticks``); returns the finished back end."""
-    teleop = WebTeleop(env_id, seed=seed, save=save, hz=hz, auto_save=auto_save)
+    teleop = WebTeleop(env_id, seed=seed, save=save, hz=hz, auto_save=auto_save, frame_process=True)
     ssl = {}
     if ssl_certfile:
         ssl = {"ssl_certfile": ssl_certfile, "ssl_keyfile": ssl_keyfile}
@@ -303,5 +295,5 @@ def serve(
         pass
     finally:
         server.stop()
-        teleop.env.close()
+        teleop.close()
     return teleop
