@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 pytest.importorskip("pygame")
 
-from kinder_bench.cli import app  # noqa: E402
+from kinder_bench.cli import app
 
 runner = CliRunner()
 

@@ -158,3 +158,23 @@ def test_mouse_stick_gamepad_and_manual_events(app: Teleop2DApp) -> None:
     key(pygame.KEYDOWN, pygame.K_ESCAPE)
     app.run(max_ticks=5)
     assert app.loop.quit
+
+
+def test_3d_keyboard_fallback_window_drives_the_base() -> None:
+    pytest.importorskip("kinder_garden3d")
+    from kinder_gym.teleop.app import make_window
+
+    window = make_window(
+        "kinder/BaseMotion3D-v0", clock=FakeClock(), open_controllers=False, auto_save=False
+    )
+    pygame.event.clear()
+    try:
+        robot = window.env.unwrapped.get_state().get_object_from_name("robot")
+        key(pygame.KEYDOWN, pygame.K_w)
+        window.run(max_ticks=3)
+        state = window.env.unwrapped.get_state()
+        assert state.get(robot, "pos_base_x") == pytest.approx(0.15)  # 0.5 m/s at 10 Hz
+        assert state.get(robot, "pos_base_y") == pytest.approx(0.0)
+        assert window.loop.status.step == 3 and window.frames == 3
+    finally:
+        window.close()
