@@ -5,10 +5,11 @@ Usage:
     python benchmarks/teleop_bench.py web [--env kinder/BaseMotion3D-v0] [--hz 10] [--seconds 20]
         [--frame-every 3]
     python benchmarks/teleop_bench.py window [--env kinder/Motion2D-p0-v0] [--ticks 400]
+    python benchmarks/teleop_bench.py table RESULTS.jsonl   # the README tables of saved records
 
 ``web`` starts the real server (uvicorn on 127.0.0.1) and the teleop loop in this process and a
-WebSocket client thread that streams input messages at 60 Hz (base clutch engaged, the device
-moving); it reports, per run, the latency from a message's arrival at the server to the env
+WebSocket client thread that streams input messages at 60 Hz (base and arm clutches engaged, both
+devices moving, so the IK runs every tick); it reports, per run, the latency from a message's arrival at the server to the env
 action it produced being applied (the loop's ``latencies``: receive time → after ``env.step``),
 the achieved control rate at the requested ``hz``, and the largest sustainable rate (the same
 loop unthrottled: ``hz`` = 1000, so every tick runs back to back, frames and status included),
@@ -27,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import threading
 import time
@@ -52,14 +54,18 @@ def _client(url: str, stop: threading.Event, rate_hz: float) -> None:
         while not stop.is_set():
             t = time.perf_counter() - t0
             z = -0.3 * (1.0 - abs((t % 4.0) - 2.0) / 2.0)  # back and forth, 0 … −0.3 m
+            a = 0.05 * math.sin(2.0 * t)  # the hand moves too, so the IK runs every tick
             msg = {
                 "v": 1,
                 "type": "input",
                 "seq": seq,
                 "sent": time.time() * 1000.0,
                 "device": "script",
-                "engaged": ["base"],
-                "poses": {"base": {"grab": 1, "p": [0.0, 0.0, z], "q": [0, 0, 0, 1]}},
+                "engaged": ["base", "arm"],
+                "poses": {
+                    "base": {"grab": 1, "p": [0.0, 0.0, z], "q": [0, 0, 0, 1]},
+                    "arm": {"grab": 1, "p": [a, a, 0.0], "q": [0, 0, 0, 1]},
+                },
             }
             ws.send(json.dumps(msg))
             seq += 1
@@ -154,6 +160,33 @@ def bench_window(env_id: str, ticks: int) -> list[dict[str, Any]]:
     return out
 
 
+def table(path: str) -> str:
+    """Markdown tables of the records in ``path`` (one JSON object per line)."""
+    rows = [json.loads(line) for line in open(path) if line.strip()]
+    out = [
+        "| env | frames rendered | requested Hz | control Hz | latency mean / p50 / p95 / max ms "
+        "| frame updates/s |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        if r["measure"] != "web":
+            continue
+        lat = r["latency"]
+        req = "unthrottled" if r["hz_requested"] > 100 else f"{r['hz_requested']:g}"
+        where = "separate process" if r["frames"] == "process" else "loop thread, every 3 ticks"
+        out.append(
+            f"| {r['env_id']} | {where} | {req} | {r['control_hz']} | {lat['mean_ms']} / "
+            f"{lat['p50_ms']} / {lat['p95_ms']} / {lat['max_ms']} | {r['frame_updates_per_s']} |"
+        )
+    out += ["", "| env | window | requested Hz | frames per second |", "|---|---|---|---|"]
+    for r in rows:
+        if r["measure"] == "window":
+            req = "unthrottled" if r["hz_requested"] > 100 else f"{r['hz_requested']:g}"
+            size = "×".join(str(v) for v in r["window"])
+            out.append(f"| {r['env_id']} | {size} | {req} | {r['fps']} |")
+    return "\n".join(out)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="what", required=True)
@@ -165,8 +198,12 @@ def main() -> None:
     window = sub.add_parser("window")
     window.add_argument("--env", default="kinder/Motion2D-p0-v0")
     window.add_argument("--ticks", type=int, default=400)
+    tab = sub.add_parser("table")
+    tab.add_argument("path")
     args = parser.parse_args()
-    if args.what == "web":
+    if args.what == "table":
+        print(table(args.path))
+    elif args.what == "web":
         for frame_process in (True, False):
             for hz in (args.hz, 1000.0):
                 record = bench_web(args.env, hz, args.seconds, args.frame_every, frame_process)

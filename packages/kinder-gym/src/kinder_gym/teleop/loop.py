@@ -177,17 +177,17 @@ class TeleopLoop:
         return self.recorder.finish(task=env_task(self.env), metadata=meta)
 
     def save_episode(self, note: str = "manual") -> EpisodeRecord | None:
-        """Save the current episode (if it has steps) and move on to the next seed."""
-        record = None
-        if self.recorder.num_steps > 0:
-            record = self._record(note)
-            self.saved.append(record)
-            if self.save_fn is not None:
-                self.save_fn(record)
-            self.status.episodes_saved += 1
-            self.status.message = f"saved seed {record.seed} ({record.num_steps} steps, {note})"
-        else:
-            self.status.message = "nothing to save (no steps)"
+        """Save the current episode and move on to the next seed; an episode without steps is
+        not saved and stays current."""
+        if self.recorder.num_steps == 0:
+            self.status.message = "nothing to save yet (no steps)"
+            return None
+        record = self._record(note)
+        self.saved.append(record)
+        if self.save_fn is not None:
+            self.save_fn(record)
+        self.status.episodes_saved += 1
+        self.status.message = f"saved seed {record.seed} ({record.num_steps} steps, {note})"
         self.reset(self.status.seed + 1)
         return record
 

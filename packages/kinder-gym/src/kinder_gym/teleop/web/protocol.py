@@ -17,6 +17,7 @@ Server → client:
 
 * ``{"v": 1, "type": "hello", ...}`` on connect (env id, cameras, limits);
 * ``{"v": 1, "type": "ack", "seq": n}`` for every accepted input (the page shows the round trip);
+* ``{"v": 1, "type": "event_ack", "name": "save"}`` for every accepted event;
 * ``{"v": 1, "type": "dropped", "seq": n, "reason": "stale" | "out_of_order" | "not_in_control"}``;
 * ``{"v": 1, "type": "error", "message": "..."}`` for anything malformed (nothing changes);
 * ``{"v": 1, "type": "status", ...}`` about ten times a second (the loop's status).
