@@ -9,8 +9,8 @@ Usage:
 
 ``web`` starts the real server (uvicorn on 127.0.0.1) and the teleop loop in this process and a
 WebSocket client thread that streams input messages at 60 Hz (base and arm clutches engaged, both
-devices moving, so the IK runs every tick); it reports, per run, the latency from a message's arrival at the server to the env
-action it produced being applied (the loop's ``latencies``: receive time → after ``env.step``),
+devices moving, so the IK runs every tick); it reports, per run, the latency from a message's
+arrival at the server to the env action it produced being applied (the loop's ``latencies``: receive time → after ``env.step``),
 the achieved control rate at the requested ``hz``, and the largest sustainable rate (the same
 loop unthrottled: ``hz`` = 1000, so every tick runs back to back, frames and status included),
 each with the camera frames rendered in a separate process (what ``kinder teleop --web`` does)
@@ -162,7 +162,8 @@ def bench_window(env_id: str, ticks: int) -> list[dict[str, Any]]:
 
 def table(path: str) -> str:
     """Markdown tables of the records in ``path`` (one JSON object per line)."""
-    rows = [json.loads(line) for line in open(path) if line.strip()]
+    with open(path) as f:
+        rows = [json.loads(line) for line in f if line.strip()]
     out = [
         "| env | frames rendered | requested Hz | control Hz | latency mean / p50 / p95 / max ms "
         "| frame updates/s |",
