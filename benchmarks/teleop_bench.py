@@ -9,13 +9,13 @@ Usage:
 
 ``web`` starts the real server (uvicorn on 127.0.0.1) and the teleop loop in this process and a
 WebSocket client thread that streams input messages at 60 Hz (base and arm clutches engaged, both
-devices moving, so the IK runs every tick); it reports, per run, the latency from a message's
+devices moving, so the IK runs every tick). Per run it reports the latency from a message's
 arrival at the server to the env action it produced being applied (the loop's ``latencies``:
-receive time → after ``env.step``), the achieved control rate at the requested ``hz``, and the largest sustainable rate (the same
-loop unthrottled: ``hz`` = 1000, so every tick runs back to back, frames and status included),
-each with the camera frames rendered in a separate process (what ``kinder teleop --web`` does)
-and in the loop thread every ``--frame-every`` ticks.
-Latency at a fixed rate is dominated by waiting for the next tick (≈ half a period on average).
+receive time → after ``env.step``; only the newest message at a tick is used), the achieved
+control rate at the requested ``hz``, and the largest sustainable rate (the same loop
+unthrottled: ``hz`` = 1000, every tick back to back, frames and status included), each with the
+camera frames rendered in a separate process (what ``kinder teleop --web`` does) and in the loop
+thread every ``--frame-every`` ticks.
 
 ``window`` runs the 2D window with SDL's dummy video driver (software only, no display: a
 lower bound for a real window, which adds the compositor) unthrottled with a key held, and
