@@ -89,6 +89,8 @@ def test_parse_errors_name_the_problem() -> None:
 
 def test_token_is_required(teleop: WebTeleop) -> None:
     client = TestClient(teleop.app)
+    teleop.after_tick()  # renders the cameras (frame_every=1) in this, the loop's thread
+    assert teleop.hub.status()["cameras"] == ["base", "overview", "wrist"]
     assert client.get("/").status_code == 403
     page = client.get(f"/?token={teleop.token}")
     assert (
@@ -107,7 +109,7 @@ def test_clutch_deadman_stale_and_malformed(teleop: WebTeleop) -> None:
     client = TestClient(teleop.app)
     with client.websocket_connect(f"/ws?token={teleop.token}") as ws:
         hello = reply(ws, "hello")
-        assert hello["env_id"] == ENV_ID and "overview" in hello["cameras"]
+        assert hello["env_id"] == ENV_ID and hello["max_age_ms"] == 250.0
         start = base(teleop)
         # Grab 1 of the base clutch: the device reports 0.1 m forward (WebXR −z) already in its
         # first message (the grab is anchored where it began), then 0.2 m.

@@ -153,6 +153,11 @@ class WebHub:
             self._frames = dict(frames)
             self.frames_set += 1
 
+    def camera_names(self) -> list[str]:
+        """The cameras that have a frame."""
+        with self._lock:
+            return sorted(self._frames)
+
     def frame(self, camera: str) -> bytes | None:
         with self._lock:
             return self._frames.get(camera)

@@ -15,7 +15,8 @@ Routes (every one needs ``?token=<session token>``; a wrong token gets 403 / clo
   B discards. The page shows the live camera views (in VR on a panel in front of the user).
 * ``WS /ws`` — the protocol of :mod:`kinder_gym.teleop.web.protocol`.
 * ``GET /frame/{camera}.jpg`` — the newest JPEG of a camera (rendered in a separate process
-  from the loop's newest state, :mod:`kinder_gym.teleop.web.frames`).
+  from the loop's newest state, :mod:`kinder_gym.teleop.web.frames`); the status messages list
+  the cameras that have frames.
 * ``GET /status`` — the loop's status as JSON.
 
 Default bind address 127.0.0.1; pass ``host="0.0.0.0"`` to reach it from a phone on the LAN.
@@ -43,7 +44,6 @@ from kinder_gym.teleop.mapper3d import Limits, TidyBotTeleop
 from kinder_gym.teleop.web.frames import (
     FrameWorker,
     jpeg_views,
-    render_views,
     set_image_size,
 )
 from kinder_gym.teleop.web.hub import WebHub
@@ -123,7 +123,8 @@ class WebTeleop:
         hz: Control rate.
         max_age: Staleness limit (s) of input samples.
         limits: Target rate limits of the mapper.
-        frame_every: Render the cameras every this many ticks (0: never).
+        frame_every: Render the cameras every this many ticks (0: never). In-thread rendering
+            happens in the thread that runs the loop (MuJoCo's GL context is per thread).
         frame_process: Render in a separate process (:class:`~.frames.FrameWorker`: control
             keeps its rate; frames come as fast as they render). Otherwise render in the loop
             thread every ``frame_every`` ticks (simple and deterministic: tests), which stalls
@@ -170,16 +171,10 @@ class WebTeleop:
         )
         self.token = token or secrets.token_urlsafe(12)
         self.frame_every = int(frame_every)
-        self.cameras = sorted(render_views(self.env))
-        if self.frame_every > 0:
-            self.publish_frames()
+        # Nothing is rendered here: MuJoCo's EGL context belongs to the thread that first
+        # renders, which must be the loop's (or the frame worker's) thread.
         self.publish_status()
-        hello = {
-            "env_id": env_id,
-            "cameras": self.cameras,
-            "max_age_ms": max_age * 1000.0,
-            "hz": hz,
-        }
+        hello = {"env_id": env_id, "max_age_ms": max_age * 1000.0, "hz": hz}
         self.app = create_app(self.hub, self.token, hello)
 
     def publish_frames(self) -> None:
@@ -201,6 +196,7 @@ class WebTeleop:
         status["base"] = [float(v) for v in base]
         status["received"] = self.hub.received
         status["dropped"] = self.hub.dropped
+        status["cameras"] = self.hub.camera_names()
         self.hub.set_status(status)
 
     def after_tick(self) -> None:
