@@ -98,6 +98,13 @@ def wait_base(page: Any, x: float, y: float, tol: float = 0.01) -> None:
     )
 
 
+def grabbed(page: Any, channel: str, held: bool) -> None:
+    """Wait until the page's XR frame loop has seen the grip pressed (or released): its frames
+    run at the emulator's pace, which a loaded machine slows down."""
+    check = "!==" if held else "==="
+    page.wait_for_function(f"xrGrab.{channel} {check} null", timeout=WAIT_MS)
+
+
 def test_phone_touch_pads_drive_the_base_to_its_goal(
     server: tuple[WebTeleop, str], browser: Any, tmp_path: Path
 ) -> None:
@@ -160,11 +167,32 @@ def test_webxr_headset_left_grip_drives_the_base(
     page.wait_for_function(
         "window.__kinder.status && window.__kinder.status.env_id", timeout=WAIT_MS
     )
+    page.click("#vr")  # a real click: the user activation WebXR asks for
+    page.wait_for_function("window.__kinder.xrFrames > 3", timeout=WAIT_MS)
+    # Right controller: squeeze (deadman) and raise it 5 cm: the hand target rises 5 cm; the
+    # trigger closes the gripper; A saves the episode by hand.
+    right = "window.__xrDevice.controllers.right"
+    z0 = page.evaluate("window.__kinder.status.info.ee_target[2]")
+    saved_manual = page.evaluate("window.__kinder.status.episodes_saved")
+    page.evaluate(f"{right}.position.set(0.2, 1.0, -0.3); {right}.updateButtonValue('squeeze', 1)")
+    grabbed(page, "arm", True)
+    page.evaluate(f"{right}.position.set(0.2, 1.05, -0.3); {right}.updateButtonValue('trigger', 1)")
+    page.wait_for_function(
+        f"window.__kinder.status.info.ee_target[2] > {z0 + 0.049}"
+        " && window.__kinder.status.info.gripper === 1",
+        timeout=WAIT_MS,
+    )
+    page.evaluate(f"{right}.updateButtonValue('a-button', 1)")
+    wait_saved(page, saved_manual + 1)
+    page.evaluate(
+        f"{right}.updateButtonValue('a-button', 0); {right}.updateButtonValue('trigger', 0);"
+        f"{right}.updateButtonValue('squeeze', 0)"
+    )
+    manual = teleop.saved_records[-1]  # type: ignore[attr-defined]
+    assert manual.metadata["end"] == "manual" and manual.num_steps > 0
     seed = page.evaluate("window.__kinder.status.seed")
     saved_before = page.evaluate("window.__kinder.status.episodes_saved")
     gx, gy = goal(seed)
-    page.click("#vr")  # a real click: the user activation WebXR asks for
-    page.wait_for_function("window.__kinder.xrFrames > 3", timeout=WAIT_MS)
     left = "window.__xrDevice.controllers.left"
     # Robot +x is WebXR −z and robot +y is WebXR −x. Like a person: squeeze, move the controller
     # at most 0.4 m, release, bring it back, squeeze again (each grab re-captures the reference).
@@ -178,12 +206,13 @@ def test_webxr_headset_left_grip_drives_the_base(
         page.evaluate(f"{left}.position.set(-0.2, 1.0, -0.3)")
         page.wait_for_timeout(50)
         page.evaluate(f"{left}.updateButtonValue('squeeze', 1)")
+        grabbed(page, "base", True)  # the page saw the squeeze at this position
         for k in range(1, 11):
             page.evaluate(f"{left}.position.set({-0.2 - sy * k / 10}, 1.0, {-0.3 - sx * k / 10})")
             page.wait_for_timeout(20)
         wait_base(page, bx + sx, by + sy)
         page.evaluate(f"{left}.updateButtonValue('squeeze', 0)")
-        page.wait_for_timeout(50)
+        grabbed(page, "base", False)
     wait_saved(page, saved_before + 1)
     page.evaluate(f"{left}.updateButtonValue('squeeze', 0)")
     page.screenshot(path=str(tmp_path / "xr.png"))
