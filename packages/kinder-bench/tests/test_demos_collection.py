@@ -159,3 +159,19 @@ def test_convert_to_hdf5_and_back(tmp_path: Path) -> None:
         assert y.source == "imported"
     replay = runner.invoke(app, ["demos", "replay", str(back)])
     assert replay.exit_code == 0, replay.output
+
+
+@pytest.mark.parametrize(("agent", "source"), [("mpc", "mpc"), ("random", "scripted")])
+def test_collect_from_mpc_and_scripted_agents(
+    toy_id: str, tmp_path: Path, agent: str, source: str
+) -> None:
+    config = CollectConfig(
+        toy_id, agent=agent, agent_args={"horizon": 15} if agent == "mpc" else {}, episodes=1
+    )
+    outcome = collect(
+        config, tmp_path, executor="inline", imports=["kinder_bench_toy"], progress=False
+    )
+    assert outcome.config.source == source and outcome.complete
+    record = load_record(tmp_path / "episodes" / outcome.kept[0]["file"])
+    assert record.source == source and record.success and record.skills == []
+    assert record.metadata["agent"] == agent
