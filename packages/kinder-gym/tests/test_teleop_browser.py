@@ -8,6 +8,7 @@ cleanly when either is missing. Never downloads a browser.
 
 from __future__ import annotations
 
+import functools
 import shutil
 import threading
 from collections.abc import Iterator
@@ -35,7 +36,10 @@ WAIT_MS = 60_000  # an upper bound for a slow CI machine, not a timing assertion
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
 
 
+@functools.cache
 def goal(seed: int) -> tuple[float, float]:
+    """The target of BaseMotion3D's episode ``seed``. Strokes look it up again each time: on a
+    slow machine an episode may hit its 200-step limit and move on to the next seed."""
     env = kinder_core.make(ENV_ID)
     env.reset(seed=seed)
     state = env.unwrapped.get_state()
@@ -115,9 +119,7 @@ def test_phone_touch_pads_drive_the_base_to_its_goal(
     page.wait_for_function(
         "window.__kinder.status && window.__kinder.status.env_id", timeout=WAIT_MS
     )
-    seed = page.evaluate("window.__kinder.status.seed")
     saved_before = page.evaluate("window.__kinder.status.episodes_saved")
-    gx, gy = goal(seed)
     pad = page.locator("#basepad").bounding_box()
     cx, cy = pad["x"] + pad["width"] * 0.6, pad["y"] + pad["height"] * 0.35
     cdp = context.new_cdp_session(page)
@@ -133,6 +135,7 @@ def test_phone_touch_pads_drive_the_base_to_its_goal(
         if status["episodes_saved"] > saved_before:
             break
         bx, by = status["base"][:2]
+        gx, gy = goal(status["seed"])
         sx = max(-0.4, min(0.4, gx - bx))
         sy = max(-0.4, min(0.4, gy - by))
         dx_px, dy_px = -sy / M_PER_PX, -sx / M_PER_PX
@@ -146,7 +149,7 @@ def test_phone_touch_pads_drive_the_base_to_its_goal(
     assert (tmp_path / "phone.png").stat().st_size > 1000
     assert page.evaluate("document.querySelector('#views img').dataset.loaded") == "1"
     record = teleop.saved_records[-1]  # type: ignore[attr-defined]
-    assert record.terminated and record.seed == seed and record.metadata["device"] == "web"
+    assert record.terminated and record.metadata["device"] == "web"
     assert page.evaluate("window.__kinder.errors.length") == 0
     context.close()
 
@@ -190,9 +193,7 @@ def test_webxr_headset_left_grip_drives_the_base(
     )
     manual = teleop.saved_records[-1]  # type: ignore[attr-defined]
     assert manual.metadata["end"] == "manual" and manual.num_steps > 0
-    seed = page.evaluate("window.__kinder.status.seed")
     saved_before = page.evaluate("window.__kinder.status.episodes_saved")
-    gx, gy = goal(seed)
     left = "window.__xrDevice.controllers.left"
     # Robot +x is WebXR −z and robot +y is WebXR −x. Like a person: squeeze, move the controller
     # at most 0.4 m, release, bring it back, squeeze again (each grab re-captures the reference).
@@ -201,6 +202,7 @@ def test_webxr_headset_left_grip_drives_the_base(
         if status["episodes_saved"] > saved_before:
             break
         bx, by = status["base"][:2]
+        gx, gy = goal(status["seed"])
         sx = max(-0.4, min(0.4, gx - bx))
         sy = max(-0.4, min(0.4, gy - by))
         page.evaluate(f"{left}.position.set(-0.2, 1.0, -0.3)")
@@ -217,6 +219,6 @@ def test_webxr_headset_left_grip_drives_the_base(
     page.evaluate(f"{left}.updateButtonValue('squeeze', 0)")
     page.screenshot(path=str(tmp_path / "xr.png"))
     record = teleop.saved_records[-1]  # type: ignore[attr-defined]
-    assert record.terminated and record.seed == seed
+    assert record.terminated and record.metadata["end"] == "success"
     assert page.evaluate("window.__kinder.errors.length") == 0
     context.close()
