@@ -128,6 +128,27 @@ def test_phone_touch_pads_drive_the_base_to_its_goal(
         points = [] if kind == "touchEnd" else [{"x": x, "y": y, "id": 1}]
         cdp.send("Input.dispatchTouchEvent", {"type": kind, "touchPoints": points})
 
+    # The arm's lift strip: dragging up 25 px raises the hand target 0.1 m; the slider near its
+    # top closes the gripper; Restart discards the episode and restarts its seed.
+    z0 = page.evaluate("window.__kinder.status.info.ee_target[2]")
+    lift = page.locator("#lift").bounding_box()
+    lx, ly = lift["x"] + lift["width"] / 2, lift["y"] + lift["height"] / 2
+    touch("touchStart", lx, ly)
+    for k in range(1, 6):
+        touch("touchMove", lx, ly - 5 * k)
+    page.wait_for_function(
+        f"window.__kinder.status.info.ee_target[2] > {z0 + 0.099}", timeout=WAIT_MS
+    )
+    touch("touchEnd", 0, 0)
+    grip = page.locator("#grip").bounding_box()
+    touch("touchStart", grip["x"] + grip["width"] / 2, grip["y"] + 2)
+    page.wait_for_function("window.__kinder.status.info.gripper > 0.9", timeout=WAIT_MS)
+    touch("touchEnd", 0, 0)
+    restarted = page.evaluate("window.__kinder.status.episodes_discarded")
+    page.tap("#reset")
+    page.wait_for_function(
+        f"window.__kinder.status.episodes_discarded > {restarted}", timeout=WAIT_MS
+    )
     # The robot faces +x (yaw 0): screen up = +x, screen left = +y. Drag in strokes of at most
     # 0.4 m from where the base is (clutch: each touch re-captures the reference), like a person.
     for _ in range(30):
