@@ -60,36 +60,37 @@ def test_region_follows_the_drawer():
     env = Dynamic3DEnv("SweepIntoDrawer3D/SweepIntoDrawer3D.json", num_objects=1)
     try:
         s, _ = env.reset(seed=0)
-        drawer = env.objects["kitchen_island_drawer_1_1"]
+        drawer = env.objects["kitchen_island_drawer_s1c1"]
         # Island at (0.5, 0), yaw -90: local +y (the drawer's pull direction) is world +x.
         inside_closed = (0.5 - 0.2, 0.0, 0.19 + 0.03)
-        _place(s, env, "screw_0", inside_closed)
+        _place(s, env, "cube_0", inside_closed)
         assert env.goal_reached(s)
         s.set(drawer, "pos", 0.5)  # open 50 cm: the region slides out with the drawer
         assert not env.goal_reached(s)
-        _place(s, env, "screw_0", (inside_closed[0] + 0.5, 0.0, inside_closed[2]))
+        _place(s, env, "cube_0", (inside_closed[0] + 0.5, 0.0, inside_closed[2]))
         assert env.goal_reached(s)
     finally:
         env.close()
 
 
 def test_balanced_and_the_beam_region():
-    env = Dynamic3DEnv("BalanceBeam3D/BalanceBeam3D.json", num_objects=1)
+    env = Dynamic3DEnv("BalanceBeam3D/BalanceBeam3D.json")
     try:
         s, _ = env.reset(seed=0)
         seesaw = env.objects["seesaw_1"]
         beam = env.regions.transform(s, "beam_goal_region")
-        end = beam[:3, :3] @ np.array([0.15, 0.0, 0.015]) + beam[:3, 3]
-        _place(s, env, "block_0", tuple(end))
+        blocks = {"large_block": 0.15, "small_block_1": -0.05, "small_block_2": -0.12}
+        for name, along in blocks.items():
+            _place(s, env, name, tuple(beam[:3, :3] @ np.array([along, 0.0, 0.015]) + beam[:3, 3]))
         s.set(seesaw, "hinge_pos", math.radians(3.0))
-        assert env.goal_atoms(s) == {"on(block_0, beam_goal_region)": True,
+        assert env.goal_atoms(s) == {**{f"on({n}, beam_goal_region)": True for n in blocks},
                                      "balanced(seesaw_1, 5)": True}  # fmt: skip
         assert env.goal_reached(s)
         s.set(seesaw, "hinge_pos", math.radians(-6.0))
         atoms = env.goal_atoms(s)
         assert not atoms["balanced(seesaw_1, 5)"]
         # The tilted beam moved away from the (unmoved) block: the region rotates with it.
-        assert not atoms["on(block_0, beam_goal_region)"]
+        assert not atoms["on(large_block, beam_goal_region)"]
         assert not env.goal_reached(s)
     finally:
         env.close()
@@ -194,17 +195,17 @@ def test_drawer_opens_when_pulled_and_stays_shut_otherwise():
     env = Dynamic3DEnv("SweepIntoDrawer3D/SweepIntoDrawer3D.json", num_objects=1)
     try:
         s, _ = env.reset(seed=0)
-        drawer = env.objects["kitchen_island_drawer_1_1"]
+        drawer = env.objects["kitchen_island_drawer_s1c1"]
         assert s.get(drawer, "pos") == pytest.approx(0.0, abs=1e-4)
         m, d = env.model, env.data
-        body = m.body("kitchen_island_drawer_1_1").id
+        body = m.body("kitchen_island_drawer_s1c1").id
         for pull, expect_open in ((0.0, False), (30.0, True)):
             env._load(s)
             d.xfrc_applied[body, :3] = (pull, 0.0, 0.0)  # world +x = the island's front
             mujoco.mj_step(m, d, round(1.0 / m.opt.timestep))  # 1 s
             d.xfrc_applied[body] = 0.0
             env._cache = None  # MjData was stepped behind the env's back
-            slide = d.qpos[m.jnt_qposadr[m.joint("kitchen_island_drawer_1_1_slide").id]]
+            slide = d.qpos[m.jnt_qposadr[m.joint("kitchen_island_drawer_s1c1_slide").id]]
             if expect_open:
                 assert slide > 0.3, slide
             else:
@@ -220,7 +221,7 @@ def test_drawer_opens_when_pulled_and_stays_shut_otherwise():
 
 
 def test_seesaw_tips_under_an_off_centre_load_and_not_under_a_centred_one():
-    env = Dynamic3DEnv("BalanceBeam3D/BalanceBeam3D.json", num_objects=1)
+    env = Dynamic3DEnv("BalanceBeam3D/BalanceBeam3D.json")
     try:
         s, _ = env.reset(seed=0)
         seesaw = env.objects["seesaw_1"]
@@ -230,11 +231,11 @@ def test_seesaw_tips_under_an_off_centre_load_and_not_under_a_centred_one():
         for where in (0.0, 0.15):
             t = s.copy()
             pos = beam[:3, :3] @ np.array([where, 0.0, 0.005 + 0.009 + 0.001]) + beam[:3, 3]
-            _place(t, env, "block_0", tuple(pos))  # the 100 g block
+            _place(t, env, "large_block", tuple(pos))  # the 100 g block
             for _ in range(15):
                 t = env.transition(t, np.zeros(11))[0]
             angles[where] = t.get(seesaw, "hinge_pos")
-            assert env.goal_atoms(t)["on(block_0, beam_goal_region)"]
+            assert env.goal_atoms(t)["on(large_block, beam_goal_region)"]
         assert abs(angles[0.0]) < math.radians(2.0)
         assert abs(angles[0.15]) > math.radians(5.0)
     finally:

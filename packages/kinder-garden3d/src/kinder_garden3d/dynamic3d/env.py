@@ -136,10 +136,12 @@ class Dynamic3DEnv(ObjectCentricEnv):
     `x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, bb_x, bb_y, bb_z` (pose of the bounding
     box centre, world-frame linear and angular velocity, full bounding-box size). A seesaw adds
     `hinge_pos, hinge_vel` (18). Fixtures (7): `x, y, z, qw, qx, qy, qz` (the footprint centre on
-    the floor); fixed obstacles add `bb_x, bb_y, bb_z`. Drawers (2): `pos, vel` of the slide
-    (0 = closed). The robot (22): `pos_base_x, pos_base_y, pos_base_rot, pos_arm_joint1..7,
-    pos_gripper, vel_base_x, vel_base_y, vel_base_rot, vel_arm_joint1..7, vel_gripper`
-    (gripper: finger closure in [0, 1], 0 = open). Quaternions are ordered (w, x, y, z).
+    the floor); fixed obstacles (`fixed_box`, used by no bundled task) add `bb_x, bb_y, bb_z`.
+    Drawers (1): `pos` of the slide (0 = closed; constant 0 for drawers welded shut). The robot
+    (22): `pos_base_x, pos_base_y, pos_base_rot, pos_arm_joint1..7, pos_gripper, vel_base_x,
+    vel_base_y, vel_base_rot, vel_arm_joint1..7, vel_gripper` (gripper: finger closure in
+    [0, 1], 0 = open). Quaternions are ordered (w, x, y, z). Object names, order and sizes match
+    upstream kindergarden 0.2.5 for every id except BalanceBeam3D (see Deviations).
     The full MuJoCo state (qpos, qvel, warm start, mocap poses, time) travels with each state
     as `sim_state`, so `set_state(s); step(a)` reproduces a step exactly.
 
@@ -149,9 +151,10 @@ class Dynamic3DEnv(ObjectCentricEnv):
     positions plus the deltas: the base tracks them with position servos; the arm with
     `Kp (q* − q) − Kd q̇` + gravity compensation (Kp = 200, 200, 200, 200, 100, 100, 100;
     Kd = 30, 30, 30, 30, 15, 15, 15; clipped to 200/100 N m); the gripper servo gets
-    `command × 255`. Tasks with `arm_velocity_targets` (Tossing3D) take 18-D actions: the 11
-    above plus 7 absolute joint-velocity targets q̇* in ±10 rad/s, giving
-    `Kp (q* − q) + Kd (q̇* − q̇)`.
+    `command × 255`. Every bundled task is 11-D (as upstream kindergarden 0.2.5, Tossing3D
+    included). A task file with `arm_velocity_targets` takes 18-D actions: the 11 above plus 7
+    absolute joint-velocity targets q̇* in ±10 rad/s, giving `Kp (q* − q) + Kd (q̇* − q̇)` (the
+    spec's older Tossing3D action).
 
     ## Reward
     −1 on every step.
@@ -192,7 +195,13 @@ class Dynamic3DEnv(ObjectCentricEnv):
     * Every task starts with its goal unsatisfied; BalanceBeam3D's goal also requires the blocks
       on the beam (as in upstream 0.2.5).
     * Kitchen drawers slide only where a task lists them (`working_drawers`; SweepIntoDrawer3D's
-      middle drawer); the others are welded shut and not observed.
+      upper middle drawer); the others are welded shut but observed (with `pos` always 0, so
+      the observation has upstream's layout).
+    * BalanceBeam3D's seesaw is observed with its hinge (`hinge_pos, hinge_vel`: 88 values
+      against upstream's 86). Upstream observes the seesaw as a plain movable object, whose
+      pose does not give the beam's angle; the `balanced` goal is a function of the
+      observation here, and `set_state` must be able to restore the beam, so the two features
+      stay.
     * The robot's `base` camera is oriented with the spec's MuJoCo euler angles
       (0, −45°, −90°) when the scene is assembled.
 
@@ -205,6 +214,14 @@ class Dynamic3DEnv(ObjectCentricEnv):
       models (MuJoCo's pyramidal cone and 1 before; `Dynamic3DConfig(cone="pyramidal",
       impratio=1)` restores them). A held 2 cm cube slipped about 0.9 mm/s out of the pads
       before and 0.05 mm/s now (`benchmarks/grasp_slip.py`).
+    * v0 (spaces update): observation and action spaces match upstream kindergarden 0.2.5 id by
+      id (object names, order and feature lists; `benchmarks/results/upstream_spaces.json`):
+      the kitchen scene adds the upper cooking-area cupboard and the left corner unit and
+      observes all ten drawers (`pos` only, named `<fixture>_drawer_s<level>c<cell>`);
+      Tossing3D is 11-D with a movable `cuboid_barrier`; objects are renamed as upstream
+      (SweepIntoDrawer3D's screws `cube_i`, Dynamo3D's `obstacle_chair[_i]` with 11 chairs in
+      o12, SortClutteredBlocks3D's `cube1..N`, BalanceBeam3D's `large_block`,
+      `small_block_1/2`); SortClutteredBlocks3D-o12 follows upstream's cupboard layout.
     """
 
     def __init__(
@@ -251,8 +268,9 @@ class Dynamic3DEnv(ObjectCentricEnv):
         for name, spec in task.fixtures.items():
             kind = STATIC_COLLIDER_TYPE if spec.kind in STATIC_COLLIDER_TYPES else FIXTURE_TYPE
             objs[name] = Object(name, kind)
-        for drawer in self.scene.drawers:
-            objs[drawer] = Object(drawer, DRAWER_TYPE)
+        for fixture in self.scene.fixtures.values():  # working and welded drawers alike
+            for drawer in [d.name for d in fixture.drawers] + fixture.welded_drawers:
+                objs[drawer] = Object(drawer, DRAWER_TYPE)
         for name in task.objects:
             kind = SEESAW_TYPE if name in self.scene.seesaws else MOVABLE_TYPE
             objs[name] = Object(name, kind)
@@ -316,8 +334,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
                     const[lay.index(obj, f)] = hi[k] - lo[k]
         for drawer, (_, joint) in self.scene.drawers.items():
             obj = self.objects[drawer]
-            add(obj, "pos", jq(joint))
-            add(obj, "vel", nq + jv(joint))
+            add(obj, "pos", jq(joint))  # welded drawers keep their constant 0
 
         free_q, free_v, ang_dst = [], [], []
         for name in self.task.objects:
@@ -683,7 +700,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
         bounds = {f: (-pos, pos) for f in ("x", "y", "z", "pos_base_x", "pos_base_y")}
         bounds.update({f: (-1.0, 1.0) for f in ("qw", "qx", "qy", "qz")})
         bounds.update({f: (0.0, 10.0) for f in ("bb_x", "bb_y", "bb_z")})
-        vel = ["vx", "vy", "vz", "wx", "wy", "wz", "vel", "hinge_vel", "vel_gripper",
+        vel = ["vx", "vy", "vz", "wx", "wy", "wz", "hinge_vel", "vel_gripper",
                "vel_base_x", "vel_base_y", "vel_base_rot"]  # fmt: skip
         vel += [f"vel_arm_joint{i}" for i in range(1, 8)]
         bounds.update({f: (-big, big) for f in vel})
