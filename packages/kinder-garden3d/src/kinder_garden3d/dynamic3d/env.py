@@ -137,11 +137,12 @@ class Dynamic3DEnv(ObjectCentricEnv):
     box centre, world-frame linear and angular velocity, full bounding-box size). A seesaw adds
     `hinge_pos, hinge_vel` (18). Fixtures (7): `x, y, z, qw, qx, qy, qz` (the footprint centre on
     the floor); fixed obstacles (`fixed_box`, used by no bundled task) add `bb_x, bb_y, bb_z`.
-    Drawers (1): `pos` of the slide (0 = closed; constant 0 for drawers welded shut). The robot
-    (22): `pos_base_x, pos_base_y, pos_base_rot, pos_arm_joint1..7, pos_gripper, vel_base_x,
-    vel_base_y, vel_base_rot, vel_arm_joint1..7, vel_gripper` (gripper: finger closure in
-    [0, 1], 0 = open). Quaternions are ordered (w, x, y, z). Object names, order and sizes match
-    upstream kindergarden 0.2.5 for every id except BalanceBeam3D (see Deviations).
+    Drawers (1): `pos` of the slide (0 = closed; constant 0 for drawers welded shut; a state
+    built from features alone has its drawers at rest). The robot (22): `pos_base_x,
+    pos_base_y, pos_base_rot, pos_arm_joint1..7, pos_gripper, vel_base_x, vel_base_y,
+    vel_base_rot, vel_arm_joint1..7, vel_gripper` (gripper: finger closure in [0, 1], 0 = open).
+    Quaternions are ordered (w, x, y, z). Object names, order and sizes match upstream
+    kindergarden 0.2.5 for every id except BalanceBeam3D (see Deviations).
     The full MuJoCo state (qpos, qvel, warm start, mocap poses, time) travels with each state
     as `sim_state`, so `set_state(s); step(a)` reproduces a step exactly.
 
@@ -335,6 +336,8 @@ class Dynamic3DEnv(ObjectCentricEnv):
         for drawer, (_, joint) in self.scene.drawers.items():
             obj = self.objects[drawer]
             add(obj, "pos", jq(joint))  # welded drawers keep their constant 0
+        # Slide velocities are not observed (as upstream): states from features are at rest.
+        self._v_drawers = np.array([jv(j) for _, j in self.scene.drawers.values()], dtype=int)
 
         free_q, free_v, ang_dst = [], [], []
         for name in self.task.objects:
@@ -440,8 +443,8 @@ class Dynamic3DEnv(ObjectCentricEnv):
         return data
 
     def _write_features(self, data: FloatArray) -> None:
-        """Set qpos, qvel and mocap poses from features (the right finger mirrors the left);
-        the warm start is cleared."""
+        """Set qpos, qvel and mocap poses from features (the right finger mirrors the left,
+        drawers are at rest); the warm start is cleared."""
         m, d = self.model, self.data
         nq, nv = m.nq, m.nv
         sim = self._sim_vector().copy()
@@ -454,6 +457,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
         d.qvel[:] = sim[nq : nq + nv]
         d.qpos[self._q_fingers[1]] = d.qpos[self._q_fingers[0]]
         d.qvel[self._v_fingers[1]] = d.qvel[self._v_fingers[0]]
+        d.qvel[self._v_drawers] = 0.0
         d.mocap_pos[:] = sim[nq + nv : nq + nv + 3 * m.nmocap].reshape(-1, 3)
         d.mocap_quat[:] = sim[nq + nv + 3 * m.nmocap :].reshape(-1, 4)
         d.qacc_warmstart[:] = 0.0
