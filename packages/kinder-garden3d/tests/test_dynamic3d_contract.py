@@ -5,6 +5,7 @@ The default run checks one id per family; ``-m slow`` runs every check on every 
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -15,6 +16,8 @@ import pytest
 import kinder_core
 import kinder_garden3d  # noqa: F401  (registers the ids)
 from kinder_core.testing import CHECKS, check_cross_process_determinism, check_kinder_env
+from kinder_garden3d.dynamic3d.env import Dynamic3DEnv
+from kinder_garden3d.dynamic3d.taskfile import resolve_task_path
 
 DYNAMIC3D_IDS = kinder_core.list_envs("Dynamic3D")
 
@@ -117,8 +120,19 @@ def test_box_view_matches_the_spec_example():
         env.close()
 
 
-def test_tossing_has_the_18d_action():
+def test_tossing_is_11d_and_velocity_targets_give_18d(tmp_path):
     env = kinder_core.make_object_centric("kinder/Tossing3D-o1-v0")
+    try:
+        assert env.action_space.shape == (11,)  # as upstream kindergarden 0.2.5
+        assert env.objects["cuboid_barrier"].type.name == "Dynamic3DMovable"
+        path = resolve_task_path(env.task.file)[0]
+    finally:
+        env.close()
+    task = json.loads(path.read_text())
+    task["arm_velocity_targets"] = True
+    custom = tmp_path / "Tossing3D-velocities.json"
+    custom.write_text(json.dumps(task))
+    env = Dynamic3DEnv(str(custom), num_objects=1)
     try:
         assert env.action_space.shape == (18,)
         assert np.all(env.action_space.low[11:] == -10.0)

@@ -51,10 +51,10 @@ def _run(model: PlanningModel, state: ObjectCentricState, name: str, seed: int =
 def test_initial_abstraction_and_goal(env, model):
     s = _start(env)
     assert sorted_atoms(model.abstract(s)) == [f"(DrawerClosed {DRAWER})", "(HandEmpty robot)"]
-    assert sorted_atoms(model.goal(s)) == [f"(InDrawer screw_{i})" for i in range(5)]
+    assert sorted_atoms(model.goal(s)) == [f"(InDrawer cube_{i})" for i in range(5)]
     names = sorted(o.name for o in model.ground_operators(s))
     assert names == sorted(
-        [OPEN, PICK, *(f"Sweep(robot, wiper_0, {DRAWER}, screw_{i})" for i in range(5))]
+        [OPEN, PICK, *(f"Sweep(robot, wiper_0, {DRAWER}, cube_{i})" for i in range(5))]
     )
     assert "InDrawer" in model.monotone_predicates
     assert "(:action Sweep" in model.domain_pddl()
@@ -68,22 +68,22 @@ def test_drawer_and_screw_predicates_on_hand_built_states(env, model):
     assert f"(DrawerOpen {DRAWER})" in atoms and f"(DrawerClosed {DRAWER})" not in atoms
     # A screw inside the open drawer (the region slides out with it) is InDrawer; on the
     # floor it is Lost; back on the island top it is neither.
-    screw = env.objects["screw_0"]
+    screw = env.objects["cube_0"]
     for f, v in zip(("x", "y", "z"), (0.5 + 0.3 + 0.2, 0.0, 0.22), strict=True):
         s.set(screw, f, v)
-    assert "(InDrawer screw_0)" in sorted_atoms(model.abstract(s))
+    assert "(InDrawer cube_0)" in sorted_atoms(model.abstract(s))
     s.set(screw, "z", 0.01)
     atoms = sorted_atoms(model.abstract(s))
-    assert "(Lost screw_0)" in atoms and "(InDrawer screw_0)" not in atoms
+    assert "(Lost cube_0)" in atoms and "(InDrawer cube_0)" not in atoms
     s.set(screw, "z", 0.467)
     atoms = sorted_atoms(model.abstract(s))
-    assert not any("screw_0" in a for a in atoms)
+    assert not any("cube_0" in a for a in atoms)
 
 
 def test_goal_atoms_imply_the_env_goal(env, model):
     s = _start(env).copy()
     for i in range(5):
-        screw = env.objects[f"screw_{i}"]
+        screw = env.objects[f"cube_{i}"]
         for f, v in zip(("x", "y", "z"), (0.3 + 0.08 * i, -0.1 + 0.05 * i, 0.22), strict=True):
             s.set(screw, f, v)
     assert model.goal(s) <= model.abstract(s)
@@ -116,11 +116,11 @@ def test_open_drawer_reaches_its_predicted_abstract_state(env, model):
 
 def test_sweep_sampler_prefers_offsets_covering_more_screws(env, model):
     s = _start(env).copy()
-    target = env.objects["screw_0"]
+    target = env.objects["cube_0"]
     ty = s.get(target, "y")
     for i in range(1, 5):  # all the other screws 5 cm to the +y side of the target
-        s.set(env.objects[f"screw_{i}"], "y", ty + 0.05)
-    op = {o.name: o for o in model.ground_operators(s)}[f"Sweep(robot, wiper_0, {DRAWER}, screw_0)"]
+        s.set(env.objects[f"cube_{i}"], "y", ty + 0.05)
+    op = {o.name: o for o in model.ground_operators(s)}[f"Sweep(robot, wiper_0, {DRAWER}, cube_0)"]
     controller = model.skill(op).controller
     rng = np.random.default_rng(0)
     for _ in range(5):
@@ -144,7 +144,7 @@ def test_pick_wiper_then_sweep(env, model):
     assert wiper_pose(held, env.objects["wiper_0"])[1][0, 0] > 0.9
     # A sweep pass keeps the wiper in hand and pushes the band's screws forward (+x).
     op = {o.name: o for o in model.ground_operators(held)}[
-        f"Sweep(robot, wiper_0, {DRAWER}, screw_1)"
+        f"Sweep(robot, wiper_0, {DRAWER}, cube_1)"
     ]
     skill = model.skill(op)
     assert isinstance(skill.controller, SweepController)
@@ -153,6 +153,6 @@ def test_pick_wiper_then_sweep(env, model):
     assert rollout.finished
     end = rollout.states[-1]
     assert "(Holding robot wiper_0)" in sorted_atoms(model.abstract(end))
-    x0 = held.get(env.objects["screw_1"], "x")
-    moved = end.get(env.objects["screw_1"], "x") - x0
-    assert moved > 0.05 or end.get(env.objects["screw_1"], "z") < 0.41
+    x0 = held.get(env.objects["cube_1"], "x")
+    moved = end.get(env.objects["cube_1"], "x") - x0
+    assert moved > 0.05 or end.get(env.objects["cube_1"], "z") < 0.41

@@ -514,6 +514,8 @@ class FixtureAsset:
     drawers: list[DrawerSpec] = field(default_factory=list)
     drawer_of: dict[str, str] = field(default_factory=dict)
     default_frame: str = "top"
+    #: Drawers welded shut (no joint): still observed, with a constant slide position of 0.
+    welded_drawers: list[str] = field(default_factory=list)
 
     def body(self, name: str, pos: Sequence[float], quat: Sequence[float] | Array) -> str:
         return (
@@ -576,6 +578,7 @@ def _cupboard(name: str, p: Params) -> FixtureAsset:
     children: list[str] = []
     drawers: list[DrawerSpec] = []
     drawer_of: dict[str, str] = {}
+    welded: list[str] = []
     inner = length / 2 - (0.0 if p["side_and_back_open"] else t)
     for k, level_parts in enumerate(partitions):
         xs = [float(x) for x in level_parts]
@@ -600,8 +603,9 @@ def _cupboard(name: str, p: Params) -> FixtureAsset:
             if drawers_cfg[k][c] and not working:
                 # A drawer that never opens: the same shapes, welded to the fixture (no joint,
                 # no state, and no contacts with the fixture to compute).
-                _, xml = _drawer(name, k, c, x1 - x0, depth, heights[k], t, p)
+                spec, xml = _drawer(name, k, c, x1 - x0, depth, heights[k], t, p)
                 lines.extend(_static_drawer_geoms(xml, (xc, 0.0, z[k])))
+                welded.append(spec)
             elif drawers_cfg[k][c]:
                 spec, xml = _drawer(name, k, c, x1 - x0, depth, heights[k], t, p)
                 children.append(xml.replace("__POS__", _f((xc, 0.0, z[k]))))
@@ -614,15 +618,17 @@ def _cupboard(name: str, p: Params) -> FixtureAsset:
                 frames[key] = drawers[-1].frame
                 drawer_of[key] = spec
     aabb = (np.array([-length / 2, -depth / 2, 0.0]), np.array([length / 2, depth / 2, total]))
-    return FixtureAsset("\n".join(lines), "\n".join(children), aabb, frames, drawers, drawer_of)
+    return FixtureAsset("\n".join(lines), "\n".join(children), aabb, frames, drawers, drawer_of,
+                        welded_drawers=welded)  # fmt: skip
 
 
 def _drawer(
     cupboard: str, k: int, c: int, width: float, depth: float, height: float, t: float, p: Params
 ) -> tuple[str, str]:
     """A drawer filling one cell: a floor (1 cm), side and back walls, a face and a handle bar.
-    Its body origin is the cell's floor centre; it slides along +y (out of the front)."""
-    name = f"{cupboard}_drawer_{k}_{c}"
+    Its body origin is the cell's floor centre; it slides along +y (out of the front). Named
+    ``<cupboard>_drawer_s<level>c<cell>`` as upstream kindergarden 0.2.5."""
+    name = f"{cupboard}_drawer_s{k}c{c}"
     gap = 0.004
     w = width - 2 * gap
     dd = depth - 0.02

@@ -45,6 +45,7 @@ _SIM_STATE_SPEC = int(
 )
 _FINGER_TRAVEL = GRIPPER_STROKE / 2.0  # slide of one finger pad from open to closed
 _PENETRATION_TOL = 1e-4
+_CONES = {"elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC, "pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL}
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,12 @@ class Dynamic3DConfig:
         max_base_delta: Bound of the base deltas (m for x, y; rad for yaw).
         max_arm_delta: Bound of the arm joint deltas (rad).
         max_arm_velocity_target: Bound of the 7 joint-velocity targets of 18-D tasks (rad/s).
+        cone: MuJoCo friction cone, ``"elliptic"`` (default, as the upstream robot models:
+            Menagerie's TidyBot and Gen3 + 2F-85) or ``"pyramidal"`` (MuJoCo's default, used
+            before the contact update).
+        impratio: Ratio of frictional to normal constraint impedance (10 as upstream's robot
+            models; MuJoCo's default is 1). With the elliptic cone and 10, a 2 cm cube held
+            in the gripper no longer creeps out of the pads.
         image_width, image_height: Rendered frame size for every camera.
         max_placement_tries: Pose samples per entity before a layout attempt is abandoned.
         max_reset_tries: Layout attempts per reset before a RuntimeError.
@@ -73,6 +80,8 @@ class Dynamic3DConfig:
     max_base_delta: float = 0.1
     max_arm_delta: float = 0.1
     max_arm_velocity_target: float = 10.0
+    cone: str = "elliptic"
+    impratio: float = 10.0
     image_width: int = 640
     image_height: int = 480
     max_placement_tries: int = 500
@@ -81,7 +90,8 @@ class Dynamic3DConfig:
     default_robot_region: tuple[float, float, float, float] = (-1.0, -1.0, 1.0, 1.0)
 
     def __post_init__(self) -> None:
-        positive = ("timestep", "max_base_delta", "max_arm_delta", "max_arm_velocity_target")
+        positive = ("timestep", "max_base_delta", "max_arm_delta", "max_arm_velocity_target",
+                    "impratio")  # fmt: skip
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ValueError(f"Dynamic3DConfig.{name} must be > 0, got {getattr(self, name)}")
@@ -89,6 +99,10 @@ class Dynamic3DConfig:
                      "max_reset_tries"):  # fmt: skip
             if not getattr(self, name) >= 1:
                 raise ValueError(f"Dynamic3DConfig.{name} must be >= 1, got {getattr(self, name)}")
+        if self.cone not in _CONES:
+            raise ValueError(
+                f"Dynamic3DConfig.cone must be one of {sorted(_CONES)}, got {self.cone!r}"
+            )
         if self.settle_actions < 0 or self.placement_gap < 0:
             raise ValueError("Dynamic3DConfig.settle_actions and placement_gap must be >= 0")
         x0, y0, x1, y1 = self.default_robot_region
@@ -113,18 +127,22 @@ class Dynamic3DEnv(ObjectCentricEnv):
     objects, regions, cameras, initial-state and goal predicates). The robot has a holonomic
     base (position servo), a 7-DoF Kinova Gen3 arm (joint PD torque control with gravity
     compensation) and a two-finger Robotiq 2F-85-style gripper. Physics: MuJoCo, 1 ms steps,
-    100 steps per action (0.1 s of simulated time, 10 Hz control). Every fixture and object is
-    built from primitive shapes.
+    100 steps per action (0.1 s of simulated time, 10 Hz control), elliptic friction cones with
+    `impratio = 10` (the contact settings of upstream's robot models). Every fixture and object
+    is built from primitive shapes.
 
     ## Observation Space
     All objects sorted by name, each with its type's features. Movable objects (16):
     `x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, bb_x, bb_y, bb_z` (pose of the bounding
     box centre, world-frame linear and angular velocity, full bounding-box size). A seesaw adds
     `hinge_pos, hinge_vel` (18). Fixtures (7): `x, y, z, qw, qx, qy, qz` (the footprint centre on
-    the floor); fixed obstacles add `bb_x, bb_y, bb_z`. Drawers (2): `pos, vel` of the slide
-    (0 = closed). The robot (22): `pos_base_x, pos_base_y, pos_base_rot, pos_arm_joint1..7,
-    pos_gripper, vel_base_x, vel_base_y, vel_base_rot, vel_arm_joint1..7, vel_gripper`
-    (gripper: finger closure in [0, 1], 0 = open). Quaternions are ordered (w, x, y, z).
+    the floor); fixed obstacles (`fixed_box`, used by no bundled task) add `bb_x, bb_y, bb_z`.
+    Drawers (1): `pos` of the slide (0 = closed; constant 0 for drawers welded shut; a state
+    built from features alone has its drawers at rest). The robot (22): `pos_base_x,
+    pos_base_y, pos_base_rot, pos_arm_joint1..7, pos_gripper, vel_base_x, vel_base_y,
+    vel_base_rot, vel_arm_joint1..7, vel_gripper` (gripper: finger closure in [0, 1], 0 = open).
+    Quaternions are ordered (w, x, y, z). Object names, order and sizes match upstream
+    kindergarden 0.2.5 for every id except BalanceBeam3D (see Deviations).
     The full MuJoCo state (qpos, qvel, warm start, mocap poses, time) travels with each state
     as `sim_state`, so `set_state(s); step(a)` reproduces a step exactly.
 
@@ -134,9 +152,10 @@ class Dynamic3DEnv(ObjectCentricEnv):
     positions plus the deltas: the base tracks them with position servos; the arm with
     `Kp (q* − q) − Kd q̇` + gravity compensation (Kp = 200, 200, 200, 200, 100, 100, 100;
     Kd = 30, 30, 30, 30, 15, 15, 15; clipped to 200/100 N m); the gripper servo gets
-    `command × 255`. Tasks with `arm_velocity_targets` (Tossing3D) take 18-D actions: the 11
-    above plus 7 absolute joint-velocity targets q̇* in ±10 rad/s, giving
-    `Kp (q* − q) + Kd (q̇* − q̇)`.
+    `command × 255`. Every bundled task is 11-D (as upstream kindergarden 0.2.5, Tossing3D
+    included). A task file with `arm_velocity_targets` takes 18-D actions: the 11 above plus 7
+    absolute joint-velocity targets q̇* in ±10 rad/s, giving `Kp (q* − q) + Kd (q̇* − q̇)` (the
+    spec's older Tossing3D action).
 
     ## Reward
     −1 on every step.
@@ -177,7 +196,13 @@ class Dynamic3DEnv(ObjectCentricEnv):
     * Every task starts with its goal unsatisfied; BalanceBeam3D's goal also requires the blocks
       on the beam (as in upstream 0.2.5).
     * Kitchen drawers slide only where a task lists them (`working_drawers`; SweepIntoDrawer3D's
-      middle drawer); the others are welded shut and not observed.
+      upper middle drawer); the others are welded shut but observed (with `pos` always 0, so
+      the observation has upstream's layout).
+    * BalanceBeam3D's seesaw is observed with its hinge (`hinge_pos, hinge_vel`: 88 values
+      against upstream's 86). Upstream observes the seesaw as a plain movable object, whose
+      pose does not give the beam's angle; the `balanced` goal is a function of the
+      observation here, and `set_state` must be able to restore the beam, so the two features
+      stay.
     * The robot's `base` camera is oriented with the spec's MuJoCo euler angles
       (0, −45°, −90°) when the scene is assembled.
 
@@ -186,6 +211,18 @@ class Dynamic3DEnv(ObjectCentricEnv):
 
     ## Version History
     * v0: initial release.
+    * v0 (contact update): elliptic friction cones and `impratio = 10` as upstream's robot
+      models (MuJoCo's pyramidal cone and 1 before; `Dynamic3DConfig(cone="pyramidal",
+      impratio=1)` restores them). A held 2 cm cube slipped about 0.9 mm/s out of the pads
+      before and 0.05 mm/s now (`benchmarks/grasp_slip.py`).
+    * v0 (spaces update): observation and action spaces match upstream kindergarden 0.2.5 id by
+      id (object names, order and feature lists; `benchmarks/results/upstream_spaces.json`):
+      the kitchen scene adds the upper cooking-area cupboard and the left corner unit and
+      observes all ten drawers (`pos` only, named `<fixture>_drawer_s<level>c<cell>`);
+      Tossing3D is 11-D with a movable `cuboid_barrier`; objects are renamed as upstream
+      (SweepIntoDrawer3D's screws `cube_i`, Dynamo3D's `obstacle_chair[_i]` with 11 chairs in
+      o12, SortClutteredBlocks3D's `cube1..N`, BalanceBeam3D's `large_block`,
+      `small_block_1/2`); SortClutteredBlocks3D-o12 follows upstream's cupboard layout.
     """
 
     def __init__(
@@ -209,6 +246,8 @@ class Dynamic3DEnv(ObjectCentricEnv):
         self.scene: Scene = build_scene(self.task, (cfg.image_width, cfg.image_height))
         self.model = mujoco.MjModel.from_xml_string(self.scene.xml)
         self.model.opt.timestep = cfg.timestep
+        self.model.opt.cone = _CONES[cfg.cone]
+        self.model.opt.impratio = cfg.impratio
         self.data = mujoco.MjData(self.model)
         self._velocity_targets = self.task.arm_velocity_targets
         self._setup_objects()
@@ -230,8 +269,9 @@ class Dynamic3DEnv(ObjectCentricEnv):
         for name, spec in task.fixtures.items():
             kind = STATIC_COLLIDER_TYPE if spec.kind in STATIC_COLLIDER_TYPES else FIXTURE_TYPE
             objs[name] = Object(name, kind)
-        for drawer in self.scene.drawers:
-            objs[drawer] = Object(drawer, DRAWER_TYPE)
+        for fixture in self.scene.fixtures.values():  # working and welded drawers alike
+            for drawer in [d.name for d in fixture.drawers] + fixture.welded_drawers:
+                objs[drawer] = Object(drawer, DRAWER_TYPE)
         for name in task.objects:
             kind = SEESAW_TYPE if name in self.scene.seesaws else MOVABLE_TYPE
             objs[name] = Object(name, kind)
@@ -295,8 +335,9 @@ class Dynamic3DEnv(ObjectCentricEnv):
                     const[lay.index(obj, f)] = hi[k] - lo[k]
         for drawer, (_, joint) in self.scene.drawers.items():
             obj = self.objects[drawer]
-            add(obj, "pos", jq(joint))
-            add(obj, "vel", nq + jv(joint))
+            add(obj, "pos", jq(joint))  # welded drawers keep their constant 0
+        # Slide velocities are not observed (as upstream): states from features are at rest.
+        self._v_drawers = np.array([jv(j) for _, j in self.scene.drawers.values()], dtype=int)
 
         free_q, free_v, ang_dst = [], [], []
         for name in self.task.objects:
@@ -402,8 +443,8 @@ class Dynamic3DEnv(ObjectCentricEnv):
         return data
 
     def _write_features(self, data: FloatArray) -> None:
-        """Set qpos, qvel and mocap poses from features (the right finger mirrors the left);
-        the warm start is cleared."""
+        """Set qpos, qvel and mocap poses from features (the right finger mirrors the left,
+        drawers are at rest); the warm start is cleared."""
         m, d = self.model, self.data
         nq, nv = m.nq, m.nv
         sim = self._sim_vector().copy()
@@ -416,6 +457,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
         d.qvel[:] = sim[nq : nq + nv]
         d.qpos[self._q_fingers[1]] = d.qpos[self._q_fingers[0]]
         d.qvel[self._v_fingers[1]] = d.qvel[self._v_fingers[0]]
+        d.qvel[self._v_drawers] = 0.0
         d.mocap_pos[:] = sim[nq + nv : nq + nv + 3 * m.nmocap].reshape(-1, 3)
         d.mocap_quat[:] = sim[nq + nv + 3 * m.nmocap :].reshape(-1, 4)
         d.qacc_warmstart[:] = 0.0
@@ -662,7 +704,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
         bounds = {f: (-pos, pos) for f in ("x", "y", "z", "pos_base_x", "pos_base_y")}
         bounds.update({f: (-1.0, 1.0) for f in ("qw", "qx", "qy", "qz")})
         bounds.update({f: (0.0, 10.0) for f in ("bb_x", "bb_y", "bb_z")})
-        vel = ["vx", "vy", "vz", "wx", "wy", "wz", "vel", "hinge_vel", "vel_gripper",
+        vel = ["vx", "vy", "vz", "wx", "wy", "wz", "hinge_vel", "vel_gripper",
                "vel_base_x", "vel_base_y", "vel_base_rot"]  # fmt: skip
         vel += [f"vel_arm_joint{i}" for i in range(1, 8)]
         bounds.update({f: (-big, big) for f in vel})

@@ -21,8 +21,8 @@ MOVABLE_TYPE = Type(
 )
 #: A seesaw: a movable pivot plus its beam's hinge angle (rad) and rate (18).
 SEESAW_TYPE = Type("Dynamic3DSeesaw", ("hinge_pos", "hinge_vel"), MOVABLE_TYPE)
-#: A drawer of a fixture: its slide position (m, 0 = closed) and velocity.
-DRAWER_TYPE = Type("Dynamic3DDrawer", ("pos", "vel"))
+#: A drawer of a fixture: its slide position (m, 0 = closed), as upstream kindergarden 0.2.5.
+DRAWER_TYPE = Type("Dynamic3DDrawer", ("pos",))
 #: The TidyBot++-style robot (22).
 ROBOT_TYPE = Type(
     "Dynamic3DRobot",

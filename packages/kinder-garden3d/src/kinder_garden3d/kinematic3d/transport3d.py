@@ -68,9 +68,10 @@ class Transport3DEnv(Kinematic3DEnv):
     endpoint and reverted on collision.
 
     ## Observation Space
-    A (43 + 12N)-D float64 vector: `robot` (19), `table` (12), `cube0` … (12 each, sorted by
-    name), then `box0` (12). Features: `Kinematic3DRobot` (19): `pos_base_x, pos_base_y,
-    pos_base_rot, joint_1..joint_7, finger_state, grasp_active, grasp_tf_x … grasp_tf_qw`;
+    A (43 + 12N)-D float64 vector: `robot` (19), `table` (12), `box0` (12), then `cube0` … (12
+    each, sorted by name), the order of upstream kindergarden 0.2.5. Features:
+    `Kinematic3DRobot` (19): `pos_base_x, pos_base_y, pos_base_rot, joint_1..joint_7,
+    finger_state, grasp_active, grasp_tf_x … grasp_tf_qw`;
     `Kinematic3DCuboid` (12): `pose_x, pose_y, pose_z, pose_qx, pose_qy, pose_qz, pose_qw,
     grasp_active, object_type, half_extent_x, half_extent_y, half_extent_z` (the box has
     object_type 1 = open-top container with 0.01 m walls). Quaternions are ordered
@@ -99,6 +100,7 @@ class Transport3DEnv(Kinematic3DEnv):
 
     ## Version History
     * v0: first release in kinder-garden3d.
+    * v0 (spaces update): `box0` comes before the cubes in the vector, as upstream 0.2.5.
 
     ## Deviations
     Upstream's start positions of the cubes (floor or inside the box) are unverified; here they
@@ -142,7 +144,7 @@ class Transport3DEnv(Kinematic3DEnv):
         return BLUE if obj == self.box else YELLOW
 
     def box_objects(self) -> list[Object]:
-        return [self.robot, self.table, *sorted(self.cubes), self.box]
+        return [self.robot, self.table, self.box, *sorted(self.cubes)]
 
     def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
         cfg = self.config

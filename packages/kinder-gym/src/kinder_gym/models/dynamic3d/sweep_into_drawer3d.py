@@ -75,6 +75,15 @@ Findings (MuJoCo, this env) that shaped the design:
   screw, needs several samples per pass; on some seeds it finds no plan in 25 s.
 
 Imports kinder_garden3d (the ``[3d]`` extra).
+
+Version notes:
+
+* Spaces update: the env now uses upstream kindergarden 0.2.5's names, so the screws are the
+  objects ``cube_0`` … ``cube_4`` and the drawer is ``kitchen_island_drawer_s1c1`` (its only
+  feature is ``pos``); the model reads them by those names.
+* Contact update (the env's elliptic friction cones, ``impratio`` 10): the findings above about
+  held objects creeping out of the pads were made with MuJoCo's default contacts; the wiper
+  grasp (head, 7 cm lift) was kept as it is and not re-tuned.
 """
 
 from __future__ import annotations
@@ -109,7 +118,9 @@ from kinder_gym.motion_planning import FloatArray
 from kinder_gym.operators import GroundOperator, LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
-DRAWER = "kitchen_island_drawer_1_1"
+DRAWER = "kitchen_island_drawer_s1c1"
+#: The screws are named ``cube_0`` … ``cube_4`` (upstream kindergarden 0.2.5's object names).
+SCREW_PREFIX = "cube_"
 WIPER = "wiper_0"
 GOAL_REGION = "kitchen_island_shelf_1_partition_1_region"
 #: Height of the island top (m).
@@ -422,8 +433,9 @@ class SweepController(_Controller):
         slide off them), so that one pass drops as many as it can."""
         params = super().sample_parameters(state, rng)
         ty = state.get(self.objects[3], "y")
-        ys = np.array([state.get(o, "y") for o in state.get_objects(MOVABLE_TYPE)
-                       if o.name.startswith("screw") and state.get(o, "z") > TABLE_Z])  # fmt: skip
+        on_top = [o for o in state.get_objects(MOVABLE_TYPE)
+                  if o.name.startswith(SCREW_PREFIX) and state.get(o, "z") > TABLE_Z]  # fmt: skip
+        ys = np.array([state.get(o, "y") for o in on_top])
         lo, hi = float(self.params_space.low[0]), float(self.params_space.high[0])
         cands = rng.uniform(lo, hi, 16)
         cover = (np.abs(ys[None, :] - (ty + cands[:, None])) <= 0.08).sum(axis=1)
@@ -433,7 +445,7 @@ class SweepController(_Controller):
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         offset, speed, gap, clearance = (float(v) for v in self.params)
         robot, wiper, drawer, screw = self.objects
-        screws = [o for o in state.get_objects(MOVABLE_TYPE) if o.name.startswith("screw")]
+        screws = [o for o in state.get_objects(MOVABLE_TYPE) if o.name.startswith(SCREW_PREFIX)]
         on_top = [o for o in screws if state.get(o, "z") > TABLE_Z]
         if screw not in on_top:
             raise SkillFailure(f"{screw.name} is not on the island top")
@@ -489,7 +501,9 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The SweepIntoDrawer3D planning model (any number of screws)."""
     objs: dict[str, Object] = env.objects  # type: ignore[attr-defined]
     robot, drawer, wiper = objs["robot"], objs[DRAWER], objs[WIPER]
-    screws = sorted((o for n, o in objs.items() if n.startswith("screw_")), key=lambda o: o.name)
+    screws = sorted(
+        (o for n, o in objs.items() if n.startswith(SCREW_PREFIX)), key=lambda o: o.name
+    )
     goal_keys = {s: f"on({s.name}, {GOAL_REGION})" for s in screws}
 
     DrawerOpen = Predicate("DrawerOpen", (DRAWER_TYPE,))

@@ -1,0 +1,127 @@
+"""How often the Dynamic3D planning models' skills reach their operators' predictions.
+
+A planner-free check of the skills (no search, no time budget, so machine load does not change
+it), for comparing physics settings or skill constants. For each seed the operators run in a
+fixed order, each with up to 3 parameter samples from its own sampler:
+
+* ``shelf``: Pick then Place of every cube in turn (Shelf3D-oN); a step counts when the
+  abstract state afterwards equals the operator's prediction.
+* ``sweep``: OpenDrawer, PickWiper, then up to 6 Sweep passes, each aimed at the first screw not
+  yet in the drawer (SweepIntoDrawer3D-o5); a pass counts when its target ends in the drawer and
+  no screw is lost (a pass that loses one is undone, as the planner would reject it).
+
+Usage:
+    python benchmarks/skill_success.py shelf --env kinder/Shelf3D-o4-v0 --seeds 0-5
+    python benchmarks/skill_success.py sweep --seeds 0-19 [--contacts pyramidal:1]
+
+Prints one JSON object: successes and tries per skill, the actions of the successful runs, the
+screws in the drawer at the end (sweep) and the episodes whose env goal was reached.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+import numpy as np
+
+from kinder_core import ObjectCentricState, make_object_centric
+from kinder_gym.models import create_model
+from kinder_gym.skills import SkillFailure, execute_skill
+
+TRIES = 3
+MAX_STEPS = 400
+
+
+def _seeds(text: str) -> list[int]:
+    lo, _, hi = text.partition("-")
+    return list(range(int(lo), int(hi or lo) + 1))
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("model", choices=("shelf", "sweep"))
+    parser.add_argument("--env", help="env id (default: Shelf3D-o1 or SweepIntoDrawer3D-o5)")
+    parser.add_argument("--seeds", default="0-9")
+    parser.add_argument("--contacts", help="cone:impratio, e.g. pyramidal:1 (default: the env's)")
+    args = parser.parse_args(argv)
+    default = "kinder/Shelf3D-o1-v0" if args.model == "shelf" else "kinder/SweepIntoDrawer3D-o5-v0"
+    kwargs: dict[str, Any] = {}
+    if args.contacts:
+        cone, impratio = args.contacts.split(":")
+        kwargs["config"] = {"cone": cone, "impratio": float(impratio)}
+    env = make_object_centric(args.env or default, **kwargs)
+    model = create_model(env)
+    stats: dict[str, Any] = {"env": args.env or default, "contacts": args.contacts or "default"}
+    steps = 0
+    solved = 0
+    in_drawer = 0
+
+    def count(skill: str, ok: bool) -> None:
+        done, tried = stats.get(skill, (0, 0))
+        stats[skill] = (done + ok, tried + 1)
+
+    def atoms(s: ObjectCentricState) -> set[str]:
+        return {str(a) for a in model.abstract(s)}
+
+    def run(name: str, skill: str, state: ObjectCentricState, rng: np.random.Generator,
+            tries: int = TRIES) -> ObjectCentricState | None:  # fmt: skip
+        nonlocal steps
+        op = ops[name]
+        want = {str(a) for a in op.apply(model.abstract(state))}
+        target = name.split(", ")[-1].rstrip(")")
+        for _ in range(tries):
+            gs = model.skill(op)
+            params = gs.controller.sample_parameters(state, rng)
+            try:
+                out = execute_skill(gs.controller, state, params, env.transition, MAX_STEPS,
+                                    stop_on_goal=False)  # fmt: skip
+            except SkillFailure:
+                count(skill, False)
+                continue
+            after = atoms(out.states[-1])
+            if skill == "Sweep":  # monotone: other screws may drop in too, none may be lost
+                ok = f"(InDrawer {target})" in after and not any("(Lost" in a for a in after)
+            else:
+                ok = out.finished and after == want
+            count(skill, ok)
+            if ok:
+                steps += len(out.actions)
+                return out.states[-1]
+        return None
+
+    for seed in _seeds(args.seeds):
+        state: ObjectCentricState | None = env.reset(seed=seed)[0]
+        rng = np.random.default_rng(seed)
+        assert state is not None
+        ops = {o.name: o for o in model.ground_operators(state)}
+        if args.model == "shelf":
+            for cube in sorted(n for n in env.objects if n.startswith("cube")):  # type: ignore[attr-defined]
+                for name, skill in ((f"Pick(robot, {cube})", "Pick"),
+                                    (f"Place(robot, {cube}, cupboard_1)", "Place")):  # fmt: skip
+                    state = run(name, skill, state, rng) if state is not None else None
+        else:
+            for prefix in ("OpenDrawer", "PickWiper"):
+                name = next(n for n in ops if n.startswith(prefix))
+                state = run(name, prefix, state, rng) if state is not None else None
+            for _ in range(6):
+                if state is None:
+                    break
+                have = atoms(state)
+                left = [n for n in ops if n.startswith("Sweep")
+                        and f"(InDrawer {n.split(', ')[-1].rstrip(')')})" not in have]  # fmt: skip
+                if not left:
+                    break
+                state = run(left[0], "Sweep", state, rng, tries=1) or state
+            if state is not None:
+                in_drawer += sum(a.startswith("(InDrawer") for a in atoms(state))
+        solved += state is not None and bool(env.goal_reached(state))
+    stats.update({"success_actions": steps, "solved": solved})
+    if args.model == "sweep":
+        stats["screws_in_drawer"] = in_drawer
+    print(json.dumps(stats))
+
+
+if __name__ == "__main__":
+    main()
