@@ -1,6 +1,6 @@
 """Test fixture: tiny LeRobot v3 demonstration datasets of the toy env ``kinder/BenchReach-v0``.
 
-The demos come from a scripted controller (a step of ``gain * (target - robot)`` clipped to the
+The demos come from a scripted controller (a step of ``gain * (target - robot)``, by default 0.15, clipped to the
 action box, plus small seeded noise) and use the agreed KinDER feature keys: ``observation.state``
 (the robot's features), ``observation.environment_state`` (the rest), ``observation.images.render``
 (video of the env's 32×32 render), ``action`` and ``task`` (no ``next.*`` columns: the baselines do not read them).
@@ -19,13 +19,20 @@ from kinder_bench.envs import make_env
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
 
-def scripted_action(obs: np.ndarray, rng: np.random.Generator, noise: float) -> np.ndarray:
-    step = 1.5 * (obs[3:5] - obs[0:2]) + rng.normal(0.0, noise, 2)
+def scripted_action(
+    obs: np.ndarray, rng: np.random.Generator, noise: float, gain: float
+) -> np.ndarray:
+    step = gain * (obs[3:5] - obs[0:2]) + rng.normal(0.0, noise, 2)
     return np.clip(step, -0.1, 0.1)
 
 
 def write_toy_dataset(
-    root: Path, episodes: int, images: bool = True, seed: int = 0, noise: float = 0.01
+    root: Path,
+    episodes: int,
+    images: bool = True,
+    seed: int = 0,
+    noise: float = 0.01,
+    gain: float = 0.15,
 ) -> Path:
     """Write ``episodes`` scripted toy episodes to a new dataset at ``root``."""
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
@@ -61,7 +68,7 @@ def write_toy_dataset(
     for e in range(episodes):
         obs, _ = env.reset(seed=seed * 1000 + e)
         for _ in range(40):
-            action = scripted_action(obs, rng, noise)
+            action = scripted_action(obs, rng, noise, gain)
             frame = {
                 "observation.state": obs[robot].astype(np.float32),
                 "observation.environment_state": obs[rest].astype(np.float32),

@@ -32,6 +32,9 @@ AGENTS: dict[str, str] = {
     "random": "kinder_bench.agents.random_agent:RandomAgent",
     "mpc": "kinder_bench.agents.mpc:MPCAgent",
     "bilevel_planning": "kinder_bench.baselines.bilevel_planning:BilevelPlanningAgent",
+    "dp": "kinder_bench.baselines.diffusion:DiffusionAgent",
+    "dpes": "kinder_bench.baselines.diffusion:DPESAgent",
+    "mbrl": "kinder_bench.baselines.mbrl:MBRLAgent",
 }
 
 
