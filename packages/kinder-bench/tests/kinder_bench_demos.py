@@ -1,9 +1,10 @@
 """Test fixture: tiny LeRobot v3 demonstration datasets of the toy env ``kinder/BenchReach-v0``.
 
-The demos come from a scripted controller (a step of ``gain * (target - robot)``, by default 0.15, clipped to the
-action box, plus small seeded noise) and use the agreed KinDER feature keys: ``observation.state``
-(the robot's features), ``observation.environment_state`` (the rest), ``observation.images.render``
-(video of the env's 32×32 render), ``action`` and ``task`` (no ``next.*`` columns: the baselines do not read them).
+The demos come from a scripted controller (a step of ``gain * (target - robot)``, gain 0.15 by
+default, clipped to the action box, plus small seeded noise) and use the agreed KinDER feature
+keys: ``observation.state`` (the robot's features), ``observation.environment_state`` (the rest),
+``observation.images.render`` (video of the env's 32×32 render), ``action`` and ``task`` (no
+``next.*`` columns: the baselines do not read them).
 """
 
 from __future__ import annotations

@@ -56,7 +56,9 @@ def _feature_names(feature: Mapping[str, Any], key: str) -> tuple[str, ...]:
         )
     shape = tuple(feature.get("shape", ()))
     if shape != (len(names),):
-        raise ValueError(f"Dataset feature {key!r}: shape {shape} does not match its {len(names)} names")
+        raise ValueError(
+            f"Dataset feature {key!r}: shape {shape} does not match its {len(names)} names"
+        )
     return tuple(names)
 
 
@@ -119,7 +121,9 @@ def read_dataset_spec(root: Path | str) -> DatasetSpec:
             raise ValueError(f"{root}: expected (height, width, 3) images, got {shape}")
         image_shape = (int(shape[0]), int(shape[1]), int(shape[2]))
     robot_type = info.get("robot_type")
-    env_id = robot_type if isinstance(robot_type, str) and robot_type.startswith("kinder/") else None
+    env_id = (
+        robot_type if isinstance(robot_type, str) and robot_type.startswith("kinder/") else None
+    )
     return DatasetSpec(
         root=root,
         env_id=env_id,
@@ -234,7 +238,9 @@ def camera_images(
             if rendered is None:
                 render_cameras = getattr(model, "render_cameras", None)
                 if render_cameras is None:
-                    raise ValueError(f"{model.env_name} has no cameras; the policy needs {camera!r}")
+                    raise ValueError(
+                        f"{model.env_name} has no cameras; the policy needs {camera!r}"
+                    )
                 rendered = dict(render_cameras(state))
             names = [n for n in CAMERA_ALIASES.get(camera, (camera,)) if n in rendered]
             if not names:

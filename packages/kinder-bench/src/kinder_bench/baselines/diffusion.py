@@ -261,9 +261,7 @@ def sample_starts(episode_index: NDArray[np.int64], drop_last: int) -> NDArray[n
     (episodes shorter than that keep their first frame)."""
     starts: list[int] = []
     boundaries = np.flatnonzero(np.diff(episode_index)) + 1
-    for lo, hi in zip(
-        np.r_[0, boundaries], np.r_[boundaries, len(episode_index)], strict=True
-    ):
+    for lo, hi in zip(np.r_[0, boundaries], np.r_[boundaries, len(episode_index)], strict=True):
         starts += range(int(lo), int(max(lo + 1, hi - drop_last)))
     return np.asarray(starts, dtype=np.int64)
 
@@ -399,7 +397,7 @@ def train_diffusion(args: DiffusionTrainArgs, progress: bool = True) -> Path:
     log = CsvLog(out / "progress.csv", ("step", "loss", "lr", "samples_per_s", "elapsed_s"))
 
     def write(ckpt: Path) -> None:
-        _save_checkpoint(ckpt, policy, ema, optimizer, scheduler, step, cfg, stats, spec, env_id, args)
+        _save_checkpoint(ckpt, policy, ema, optimizer, scheduler, step, stats, spec, env_id, args)
 
     policy.train()
     losses: list[float] = []
@@ -467,7 +465,6 @@ def _save_checkpoint(
     optimizer: Any,
     scheduler: Any,
     step: int,
-    cfg: Any,
     stats: Mapping[str, Any],
     spec: Any,
     env_id: str,
@@ -476,7 +473,8 @@ def _save_checkpoint(
     import torch
     from safetensors.torch import save_file
 
-    (ema.module if ema is not None else policy).save_pretrained(ckpt)
+    saved: Any = ema.module if ema is not None else policy
+    saved.save_pretrained(ckpt)
     save_file(_stats_tensors(stats), str(ckpt / "stats.safetensors"))
     torch.save(
         {
@@ -524,7 +522,6 @@ def load_policy(path: Path | str, device: str = "cpu") -> LoadedPolicy:
     """The policy of a checkpoint (or of a run directory's latest one), cached per process."""
     import json
 
-    import torch
     from lerobot.policies.diffusion.modeling_diffusion import DiffusionPolicy
     from lerobot.policies.diffusion.processor_diffusion import make_diffusion_pre_post_processors
     from safetensors.torch import load_file

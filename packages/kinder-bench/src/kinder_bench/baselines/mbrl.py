@@ -111,7 +111,6 @@ class MBRLTrainArgs:
 
 
 def _torch_model(in_dim: int, robot_dim: int, env_dim: int, hidden: int) -> Any:
-    import torch
     from torch import nn
 
     class StateDeltaModel(nn.Module):
@@ -195,7 +194,10 @@ class DeltaModel:
 
     def predict(self, state: FloatArray, action: FloatArray) -> FloatArray:
         x = np.concatenate(
-            [(state - self.state_mean) / self.state_std, (action - self.action_mean) / self.action_std],
+            [
+                (state - self.state_mean) / self.state_std,
+                (action - self.action_mean) / self.action_std,
+            ],
             axis=-1,
         )
         w = self.weights
@@ -261,7 +263,12 @@ def open_loop_errors(
             m_z += np.linalg.norm(err_m / model.state_std, axis=1).tolist()
             c_z += np.linalg.norm(err_c / model.state_std, axis=1).tolist()
         out[f"count_{k}"] = float(len(m_l2))
-        for name, values in (("model_l2", m_l2), ("const_l2", c_l2), ("model_z", m_z), ("const_z", c_z)):
+        for name, values in (
+            ("model_l2", m_l2),
+            ("const_l2", c_l2),
+            ("model_z", m_z),
+            ("const_z", c_z),
+        ):
             out[f"{name}_{k}"] = float(np.mean(values)) if values else math.nan
     return out
 
@@ -299,7 +306,9 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
     robot_dim = len(spec.state_names)
 
     torch.manual_seed(args.seed)
-    net = _torch_model(data.state.shape[1] + data.action.shape[1], robot_dim, len(names) - robot_dim, args.hidden)
+    net = _torch_model(
+        data.state.shape[1] + data.action.shape[1], robot_dim, len(names) - robot_dim, args.hidden
+    )
     optimizer = torch.optim.Adam(net.parameters(), lr=args.lr)
     x_all = torch.as_tensor(
         np.concatenate([(data.state - s_mean) / s_std, (data.action - a_mean) / a_std], 1),
@@ -347,7 +356,7 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
             if y.shape[1] > robot_dim:
                 loss = loss + torch.mean((env - y[:, robot_dim:]) ** 2)
             optimizer.zero_grad(set_to_none=True)
-            loss.backward()
+            loss.backward()  # type: ignore[no-untyped-call]
             optimizer.step()
             total += float(loss.detach()) * len(idx)
         epoch += 1
@@ -392,14 +401,14 @@ def _check_resume(out: Path, record: dict[str, Any], keys: tuple[str, ...]) -> N
 
 def save_delta_model(ckpt: Path, model: DeltaModel, env_id: str, epoch: int) -> None:
     """Write ``model.npz`` and the checkpoint marker into ``ckpt``."""
-    arrays = {f"w/{k}": v for k, v in model.weights.items()}
+    arrays: dict[str, NDArray[Any]] = {f"w/{k}": v for k, v in model.weights.items()}
     arrays.update(
         state_mean=model.state_mean, state_std=model.state_std, action_mean=model.action_mean,
         action_std=model.action_std, delta_mean=model.delta_mean, delta_std=model.delta_std,
         constant=model.constant, angle=model.angle,
     )  # fmt: skip
     with (ckpt / "model.npz").open("wb") as f:
-        np.savez(f, **arrays)
+        np.savez(f, **arrays)  # type: ignore[arg-type]
     write_json(
         ckpt / MARKER,
         {
@@ -463,7 +472,8 @@ class MBRLAgent(MPCAgent):
         self._index = np.asarray([position[n] for n in self.delta_model.names], dtype=np.intp)
 
     def planning_state(self, obs: Any) -> FloatArray:
-        return np.asarray(obs, dtype=np.float64).copy()
+        state: FloatArray = np.array(obs, dtype=np.float64)
+        return state
 
     def transition(self, state: Any, action: FloatArray) -> tuple[Any, float, bool]:
         vec = np.asarray(state, dtype=np.float64)
