@@ -168,9 +168,12 @@ class EpisodeArrays:
     """``(T, action dims)``."""
 
 
-def read_episodes(root: Path | str) -> list[EpisodeArrays]:
-    """Every episode's state, environment-state and action columns, read from the parquet files
-    under ``data/`` (sorted by episode and frame index)."""
+def read_columns(root: Path | str) -> dict[str, NDArray[Any]]:
+    """The non-image columns every baseline reads, one row per frame in global ``index`` order:
+    ``episode_index`` (int64), ``observation.state``, ``observation.environment_state`` (``(N,
+    0)`` when absent) and ``action`` (float32), read straight from the parquet files under
+    ``data/`` (no video decoding, no lerobot import)."""
+    import pyarrow as pa
     import pyarrow.compute as pc
     import pyarrow.parquet as pq
 
@@ -178,34 +181,41 @@ def read_episodes(root: Path | str) -> list[EpisodeArrays]:
     files = sorted((spec.root / "data").rglob("*.parquet"))
     if not files:
         raise FileNotFoundError(f"{spec.root}: no parquet files under data/")
-    columns = ["episode_index", "frame_index", STATE_KEY, ACTION_KEY]
+    columns = ["index", "episode_index", STATE_KEY, ACTION_KEY]
     if spec.env_state_names:
         columns.append(ENV_STATE_KEY)
-    tables = [pq.read_table(f, columns=columns) for f in files]
-    import pyarrow as pa
-
-    table = pa.concat_tables(tables)
-    order = pc.sort_indices(
-        table, sort_keys=[("episode_index", "ascending"), ("frame_index", "ascending")]
-    )
-    table = table.take(order)
+    table = pa.concat_tables([pq.read_table(f, columns=columns) for f in files])
+    table = table.take(pc.sort_indices(table, sort_keys=[("index", "ascending")]))
 
     def column(key: str, width: int) -> NDArray[np.float32]:
         values = table.column(key).to_pylist()
         return np.asarray(values, dtype=np.float32).reshape(len(values), width)
 
     episode = np.asarray(table.column("episode_index").to_pylist(), dtype=np.int64)
-    state = column(STATE_KEY, len(spec.state_names))
-    action = column(ACTION_KEY, spec.action_dim)
-    env_state = (
-        column(ENV_STATE_KEY, len(spec.env_state_names))
-        if spec.env_state_names
-        else np.zeros((len(episode), 0), dtype=np.float32)
-    )
+    return {
+        "episode_index": episode,
+        STATE_KEY: column(STATE_KEY, len(spec.state_names)),
+        ENV_STATE_KEY: (
+            column(ENV_STATE_KEY, len(spec.env_state_names))
+            if spec.env_state_names
+            else np.zeros((len(episode), 0), dtype=np.float32)
+        ),
+        ACTION_KEY: column(ACTION_KEY, spec.action_dim),
+    }
+
+
+def read_episodes(root: Path | str) -> list[EpisodeArrays]:
+    """Every episode's state, environment-state and action columns (see :func:`read_columns`)."""
+    cols = read_columns(root)
+    episode = cols["episode_index"]
     out = []
     for e in np.unique(episode):
         rows = episode == e
-        out.append(EpisodeArrays(int(e), state[rows], env_state[rows], action[rows]))
+        out.append(
+            EpisodeArrays(
+                int(e), cols[STATE_KEY][rows], cols[ENV_STATE_KEY][rows], cols[ACTION_KEY][rows]
+            )
+        )
     return out
 
 

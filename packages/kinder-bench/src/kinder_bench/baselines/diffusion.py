@@ -26,9 +26,9 @@ Deviations and choices, written down:
   (``--steps``). As in lerobot, the last ``horizon - n_action_steps - n_obs_steps + 1 = 7`` frames
   of each episode are not used as sample starts, and actions past an episode's end are padded by
   repeating the last one.
-* The ``cpu`` preset (smoke runs and tests, not for results) shrinks the UNet to 64/128/256 with a
-  64-d timestep embedding, resizes images to 64×64 and uses batch 16. Everything else is the
-  paper's.
+* The ``cpu`` preset (smoke runs and tests, not for results) shrinks the UNet to 16/32/64 with a
+  32-d timestep embedding, resizes images to 64×64 and uses batch 16. Everything else is the
+  paper's. ``--lr`` and ``--warmup-steps`` default to the paper's 1e-4 and 500.
 * At evaluation the camera images are rendered from the live state and resized (bilinear) to the
   dataset's image size; this rendering happens inside ``act`` and so counts as inference time.
 """
@@ -79,8 +79,8 @@ PRESET_FIELDS: dict[str, dict[str, Any]] = {
         "resize_shape": None,
     },
     "cpu": {
-        "down_dims": (64, 128, 256),
-        "diffusion_step_embed_dim": 64,
+        "down_dims": (16, 32, 64),
+        "diffusion_step_embed_dim": 32,
         "resize_shape": (64, 64),
     },
 }
@@ -131,6 +131,10 @@ class DiffusionTrainArgs:
     """``paper`` (the paper's model) or ``cpu`` (a small model for smoke runs)."""
     batch_size: int | None = None
     """Samples per step; None: the preset's (paper 64, cpu 16)."""
+    lr: float = 1e-4
+    """Peak AdamW learning rate."""
+    warmup_steps: int = 500
+    """Linear warm-up steps before the cosine decay."""
     env: str | None = None
     """The env id (default: the one the dataset names)."""
     save_every: int = 1000
@@ -154,6 +158,7 @@ class DiffusionTrainArgs:
             (self.preset in PRESETS, f"preset must be one of {PRESETS}"),
             (self.steps >= 1, "steps must be >= 1"),
             (self.batch_size is None or self.batch_size >= 1, "batch_size must be >= 1"),
+            (self.lr > 0 and self.warmup_steps >= 0, "lr must be > 0 and warmup_steps >= 0"),
             (self.save_every >= 1 and self.log_every >= 1, "save_every/log_every must be >= 1"),
             (self.device in ("auto", "cpu", "cuda"), "device must be auto, cpu or cuda"),
         ]
@@ -181,6 +186,7 @@ def diffusion_config(
     method: str,
     preset: str = "paper",
     device: str = "cpu",
+    **overrides: Any,
 ) -> Any:
     """lerobot's ``DiffusionConfig`` for a dataset: its features (DP: images + state; DPES: also
     the environment state), the preset's fields and the ENV normalisation entry."""
@@ -212,8 +218,7 @@ def diffusion_config(
             "ACTION": NormalizationMode.MIN_MAX,
         },
         device=device,
-        **COMMON_FIELDS,
-        **PRESET_FIELDS[preset],
+        **{**COMMON_FIELDS, **PRESET_FIELDS[preset], **overrides},
     )
 
 
@@ -248,7 +253,7 @@ def lr_lambda(warmup: int, total: int) -> Any:
     """Linear warm-up over ``warmup`` steps, then a half cosine down to 0 at ``total``."""
 
     def f(step: int) -> float:
-        if step < warmup:
+        if step < warmup and warmup > 0:
             return (step + 1) / warmup
         progress = (step - warmup) / max(1, total - warmup)
         return 0.5 * (1.0 + math.cos(math.pi * min(progress, 1.0)))
@@ -296,6 +301,64 @@ class StepBatches:
         return self.stop - self.start
 
 
+class DemoWindows:
+    """Training samples as lerobot's ``delta_timestamps`` windows would give them, read from
+    memory: for frame ``i``, the observations of frames ``i - n_obs_steps + 1 .. i`` and the
+    actions of ``i - n_obs_steps + 1 .. i - n_obs_steps + horizon``, indices clamped to the
+    episode, with ``action_is_pad`` marking the clamped actions. The state columns are held in
+    memory (lerobot's per-item dataset queries cost more than a small model's step); only the
+    camera frames are decoded per item, through ``LeRobotDataset``.
+    """
+
+    def __init__(self, root: Path, cfg: Any, image_keys: tuple[str, ...]) -> None:
+        from kinder_bench.baselines.demo_data import read_columns
+
+        cols = read_columns(root)
+        self.episode = cols["episode_index"]
+        self.columns = {k: cols[k] for k in (STATE_KEY, ENV_STATE_KEY, ACTION_KEY)}
+        n = len(self.episode)
+        change = np.flatnonzero(np.diff(self.episode)) + 1
+        lo = np.r_[0, change]
+        hi = np.r_[change, n]
+        self.lo = np.repeat(lo, hi - lo)
+        self.hi = np.repeat(hi, hi - lo)
+        self.obs_offsets = np.asarray(cfg.observation_delta_indices, dtype=np.int64)
+        self.action_offsets = np.asarray(cfg.action_delta_indices, dtype=np.int64)
+        self.env_state = ENV_STATE_KEY in cfg.input_features
+        self.video = None
+        if image_keys:
+            from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+            meta = _meta(root)
+            deltas = {k: [i / meta.fps for i in cfg.observation_delta_indices] for k in image_keys}
+            self.video = LeRobotDataset(f"kinder/{root.name}", root=root, delta_timestamps=deltas)
+            if len(self.video) != n:
+                raise ValueError(f"{root}: {len(self.video)} frames in the dataset, {n} in data/")
+        self.image_keys = image_keys
+
+    def __len__(self) -> int:
+        return len(self.episode)
+
+    def __getitem__(self, i: int) -> dict[str, Any]:
+        import torch
+
+        lo, hi = self.lo[i], self.hi[i]
+        obs = np.clip(i + self.obs_offsets, lo, hi - 1)
+        raw = i + self.action_offsets
+        act = np.clip(raw, lo, hi - 1)
+        item: dict[str, Any] = {
+            STATE_KEY: torch.from_numpy(self.columns[STATE_KEY][obs]),
+            ACTION_KEY: torch.from_numpy(self.columns[ACTION_KEY][act]),
+            "action_is_pad": torch.from_numpy((raw < lo) | (raw >= hi)),
+        }
+        if self.env_state:
+            item[ENV_STATE_KEY] = torch.from_numpy(self.columns[ENV_STATE_KEY][obs])
+        if self.video is not None:
+            frames = self.video[int(i)]
+            item.update({k: frames[k] for k in self.image_keys})
+        return item
+
+
 def _stats_tensors(stats: Mapping[str, Mapping[str, Any]]) -> dict[str, torch.Tensor]:
     import torch
 
@@ -327,8 +390,6 @@ def train_diffusion(args: DiffusionTrainArgs, progress: bool = True) -> Path:
     with the same ``out`` resumes from the newest checkpoint (bit-identical on the CPU).
     """
     import torch
-    from lerobot.datasets.factory import resolve_delta_timestamps
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
     from lerobot.policies.diffusion.modeling_diffusion import DiffusionPolicy
     from lerobot.policies.diffusion.processor_diffusion import make_diffusion_pre_post_processors
     from safetensors.torch import load_file
@@ -349,11 +410,16 @@ def train_diffusion(args: DiffusionTrainArgs, progress: bool = True) -> Path:
     write_json(out / "config.json", config_record)
 
     torch.manual_seed(args.seed)
-    cfg = diffusion_config(spec.root, args.method, args.preset, device)
-    repo_id = f"kinder/{spec.root.name}"
-    deltas = resolve_delta_timestamps(cfg, _meta(spec.root))
-    dataset = LeRobotDataset(repo_id, root=spec.root, delta_timestamps=deltas)
-    stats = _policy_stats(dataset.meta.stats, cfg)
+    cfg = diffusion_config(
+        spec.root,
+        args.method,
+        args.preset,
+        device,
+        optimizer_lr=args.lr,
+        scheduler_warmup_steps=args.warmup_steps,
+    )
+    dataset = DemoWindows(spec.root, cfg, spec.image_keys)
+    stats = _policy_stats(_meta(spec.root).stats, cfg)
     policy = DiffusionPolicy(cfg).to(device)
     preprocess, _ = make_diffusion_pre_post_processors(cfg, stats)
     optimizer = torch.optim.AdamW(
@@ -384,11 +450,10 @@ def train_diffusion(args: DiffusionTrainArgs, progress: bool = True) -> Path:
     if step >= args.steps:
         return resume if resume is not None else out
 
-    episode_index = dataset.hf_dataset.data.column("episode_index").to_numpy()
-    starts = sample_starts(np.asarray(episode_index, dtype=np.int64), cfg.drop_n_last_frames)
+    starts = sample_starts(dataset.episode, cfg.drop_n_last_frames)
     batches = StepBatches(starts, args.batch, args.seed, step, args.steps)
-    loader = torch.utils.data.DataLoader(
-        dataset,
+    loader: Any = torch.utils.data.DataLoader(
+        dataset,  # type: ignore[arg-type]
         batch_sampler=batches,
         num_workers=args.num_workers,
         pin_memory=device == "cuda",

@@ -45,6 +45,8 @@ def _diffusion(
     steps: int,
     preset: str,
     batch_size: int | None,
+    lr: float,
+    warmup_steps: int,
     env: str | None,
     save_every: int,
     log_every: int,
@@ -61,8 +63,8 @@ def _diffusion(
 
         args = DiffusionTrainArgs(
             dataset=dataset, out=out, method=method, steps=steps, preset=preset,
-            batch_size=batch_size, env=env, save_every=save_every, log_every=log_every,
-            seed=seed, device=device, num_workers=num_workers, ema=ema,
+            batch_size=batch_size, lr=lr, warmup_steps=warmup_steps, env=env,
+            save_every=save_every, log_every=log_every, seed=seed, device=device, num_workers=num_workers, ema=ema,
         )  # fmt: skip
         if args.device != "cuda":
             torch.set_num_threads(max(1, min(torch.get_num_threads(), 4)))
@@ -76,6 +78,8 @@ PresetOpt = Annotated[
     str, typer.Option(help="paper (the paper's model) or cpu (small, smoke runs).")
 ]
 BatchOpt = Annotated[int | None, typer.Option(help="Batch size (default: paper 64, cpu 16).")]
+LrOpt = Annotated[float, typer.Option(help="Peak AdamW learning rate.")]
+WarmupOpt = Annotated[int, typer.Option(help="Linear warm-up steps.")]
 SaveOpt = Annotated[int, typer.Option(help="Checkpoint every this many steps.")]
 LogOpt = Annotated[int, typer.Option(help="Log to progress.csv every this many steps.")]
 DeviceOpt = Annotated[str, typer.Option(help="cpu, cuda or auto.")]
@@ -90,6 +94,8 @@ def train_dp(
     steps: StepsOpt = 100_000,
     preset: PresetOpt = "paper",
     batch_size: BatchOpt = None,
+    lr: LrOpt = 1e-4,
+    warmup_steps: WarmupOpt = 500,
     env: EnvOpt = None,
     save_every: SaveOpt = 1000,
     log_every: LogOpt = 100,
@@ -100,8 +106,8 @@ def train_dp(
     progress: ProgressOpt = True,
 ) -> None:
     """Diffusion policy on images + robot state (lerobot DiffusionPolicy, the paper's config)."""
-    _diffusion("dp", dataset, out, steps, preset, batch_size, env, save_every, log_every, seed,
-               device, num_workers, ema, progress)  # fmt: skip
+    _diffusion("dp", dataset, out, steps, preset, batch_size, lr, warmup_steps, env, save_every,
+               log_every, seed, device, num_workers, ema, progress)  # fmt: skip
 
 
 @train_app.command("dpes")
@@ -111,6 +117,8 @@ def train_dpes(
     steps: StepsOpt = 100_000,
     preset: PresetOpt = "paper",
     batch_size: BatchOpt = None,
+    lr: LrOpt = 1e-4,
+    warmup_steps: WarmupOpt = 500,
     env: EnvOpt = None,
     save_every: SaveOpt = 1000,
     log_every: LogOpt = 100,
@@ -121,8 +129,8 @@ def train_dpes(
     progress: ProgressOpt = True,
 ) -> None:
     """Diffusion policy on images + robot state + environment state (normalised)."""
-    _diffusion("dpes", dataset, out, steps, preset, batch_size, env, save_every, log_every, seed,
-               device, num_workers, ema, progress)  # fmt: skip
+    _diffusion("dpes", dataset, out, steps, preset, batch_size, lr, warmup_steps, env, save_every,
+               log_every, seed, device, num_workers, ema, progress)  # fmt: skip
 
 
 @train_app.command("mbrl")
