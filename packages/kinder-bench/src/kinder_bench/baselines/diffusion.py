@@ -53,6 +53,7 @@ from kinder_bench.baselines.demo_data import (
     ACTION_KEY,
     ENV_STATE_KEY,
     STATE_KEY,
+    DatasetSpec,
     ObservationMap,
     read_dataset_spec,
     resolve_dataset_env,
@@ -310,12 +311,18 @@ class DemoWindows:
     camera frames are decoded per item, through ``LeRobotDataset``.
     """
 
-    def __init__(self, root: Path, cfg: Any, image_keys: tuple[str, ...]) -> None:
-        from kinder_bench.baselines.demo_data import read_columns
+    def __init__(self, spec: DatasetSpec, cfg: Any) -> None:
+        from kinder_gym.demos.lerobot_format import load_dataset, load_records
 
-        cols = read_columns(root)
-        self.episode = cols["episode_index"]
-        self.columns = {k: cols[k] for k in (STATE_KEY, ENV_STATE_KEY, ACTION_KEY)}
+        records = load_records(spec.root)
+        observations = np.concatenate([r.observations[:-1] for r in records])
+        state, env_state = spec.split.split(observations.astype(np.float32))
+        self.columns = {
+            STATE_KEY: np.ascontiguousarray(state),
+            ENV_STATE_KEY: np.ascontiguousarray(env_state),
+            ACTION_KEY: np.concatenate([r.actions for r in records]).astype(np.float32),
+        }
+        self.episode = np.repeat(np.arange(len(records)), [r.num_steps for r in records])
         n = len(self.episode)
         change = np.flatnonzero(np.diff(self.episode)) + 1
         lo = np.r_[0, change]
@@ -326,15 +333,13 @@ class DemoWindows:
         self.action_offsets = np.asarray(cfg.action_delta_indices, dtype=np.int64)
         self.env_state = ENV_STATE_KEY in cfg.input_features
         self.video = None
-        if image_keys:
-            from lerobot.datasets.lerobot_dataset import LeRobotDataset
-
-            meta = _meta(root)
-            deltas = {k: [i / meta.fps for i in cfg.observation_delta_indices] for k in image_keys}
-            self.video = LeRobotDataset(f"kinder/{root.name}", root=root, delta_timestamps=deltas)
+        self.image_keys = spec.image_keys
+        if self.image_keys:
+            fps = _meta(spec.root).fps
+            deltas = {k: [i / fps for i in cfg.observation_delta_indices] for k in self.image_keys}
+            self.video = load_dataset(spec.root, delta_timestamps=deltas)
             if len(self.video) != n:
-                raise ValueError(f"{root}: {len(self.video)} frames in the dataset, {n} in data/")
-        self.image_keys = image_keys
+                raise ValueError(f"{spec.root}: {len(self.video)} frames, but {n} in the records")
 
     def __len__(self) -> int:
         return len(self.episode)
@@ -418,7 +423,7 @@ def train_diffusion(args: DiffusionTrainArgs, progress: bool = True) -> Path:
         optimizer_lr=args.lr,
         scheduler_warmup_steps=args.warmup_steps,
     )
-    dataset = DemoWindows(spec.root, cfg, spec.image_keys)
+    dataset = DemoWindows(spec, cfg)
     stats = _policy_stats(_meta(spec.root).stats, cfg)
     policy = DiffusionPolicy(cfg).to(device)
     preprocess, _ = make_diffusion_pre_post_processors(cfg, stats)
@@ -531,7 +536,7 @@ def _save_checkpoint(
     scheduler: Any,
     step: int,
     stats: Mapping[str, Any],
-    spec: Any,
+    spec: DatasetSpec,
     env_id: str,
     args: DiffusionTrainArgs,
 ) -> None:
@@ -564,7 +569,7 @@ def _save_checkpoint(
             "state_names": list(spec.state_names),
             "env_state_names": list(spec.env_state_names) if args.method == "dpes" else [],
             "cameras": list(spec.cameras),
-            "image_shape": list(spec.image_shape) if spec.image_shape else None,
+            "image_size": spec.image_size,
         },
     )
 
@@ -637,13 +642,12 @@ class DiffusionAgent(Agent[DiffusionAgentArgs]):
                 f"{self.loaded.path} is a {meta['method']!r} checkpoint; use --agent "
                 f"{meta['method']}"
             )
-        shape = meta["image_shape"]
         self.obs_map = ObservationMap(
             env,
             meta["state_names"],
             meta["env_state_names"],
             meta["cameras"],
-            (int(shape[0]), int(shape[1]), int(shape[2])) if shape else None,
+            int(meta["image_size"]),
         )
         cfg = self.loaded.policy.config
         self._noise_shape = (1, cfg.horizon, cfg.action_feature.shape[0])

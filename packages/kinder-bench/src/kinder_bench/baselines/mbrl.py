@@ -6,12 +6,12 @@ demonstrations' transitions (consecutive frames of one episode of a KinDER datas
 agent ``mbrl`` runs the existing MPC (:class:`~kinder_bench.agents.mpc.MPCAgent`, same arguments
 and defaults) with rollouts on that model instead of the env's ``transition``.
 
-Model (:class:`StateDeltaModel`): input ``[state, action]`` (state = robot state then environment
-state, in the dataset's feature order), a trunk of two hidden layers of 256 with SiLU, and two
-linear heads predicting the robot-state delta and the environment-state delta. Inputs and both
-targets are z-scored per feature (mean and std over the training transitions, std + 1e-8); the
-loss is MSE(robot head) + MSE(env head); Adam, lr 1e-3, batch 512, shuffled every epoch (the
-upstream default is 1000 epochs).
+Model (``StateDeltaModel``): input ``[state, action]`` (state = the full Box observation vector
+of the dataset's env; the dataset's ``StateSplit`` says which features are the robot's), a trunk
+of two hidden layers of 256 with SiLU, and two linear heads predicting the robot-state delta and
+the environment-state delta. Inputs and both targets are z-scored per feature (mean and std over
+the training transitions, std + 1e-8); the loss is MSE(robot head) + MSE(env head); Adam, lr
+1e-3, batch 512, shuffled every epoch (the upstream default is 1000 epochs).
 
 Prediction: ``next = state + delta``, except that
 
@@ -45,12 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from kinder_bench.agents.mpc import MPCAgent, MPCArgs
-from kinder_bench.baselines.demo_data import (
-    EpisodeArrays,
-    read_dataset_spec,
-    read_episodes,
-    resolve_dataset_env,
-)
+from kinder_bench.baselines.demo_data import read_dataset_spec, resolve_dataset_env
 from kinder_bench.results import package_versions, write_json
 from kinder_bench.training.checkpoints import MARKER, find_checkpoint, latest_checkpoint
 from kinder_bench.training.checkpoints import save_checkpoint as save_checkpoint_dir
@@ -58,6 +53,8 @@ from kinder_bench.training.csvlog import CsvLog
 
 if TYPE_CHECKING:
     import torch
+
+    from kinder_gym.demos.record import EpisodeRecord
 
 FloatArray = NDArray[np.float64]
 ANGLE_FEATURES = ("theta", "yaw")
@@ -140,27 +137,27 @@ class Transitions:
     next_state: FloatArray
 
 
-def episode_states(episode: EpisodeArrays) -> FloatArray:
-    """``[robot state, environment state]`` per frame."""
-    return np.concatenate([episode.state, episode.env_state], axis=1).astype(np.float64)
+def episode_states(episode: EpisodeRecord) -> FloatArray:
+    """The ``T + 1`` Box observations of an episode (the agent plans on observations)."""
+    return np.asarray(episode.observations, dtype=np.float64)
 
 
-def transitions(episodes: Sequence[EpisodeArrays]) -> Transitions:
-    """Consecutive frame pairs within each episode."""
+def transitions(episodes: Sequence[EpisodeRecord]) -> Transitions:
+    """Every ``(observation, action, next observation)`` of the episodes (the final one too)."""
     s, a, n = [], [], []
     for e in episodes:
         states = episode_states(e)
         s.append(states[:-1])
-        a.append(e.action[:-1].astype(np.float64))
+        a.append(np.asarray(e.actions, dtype=np.float64))
         n.append(states[1:])
     if not s or sum(len(x) for x in s) == 0:
-        raise ValueError("No transitions: every episode has fewer than 2 frames")
+        raise ValueError("No transitions: every episode is empty")
     return Transitions(np.concatenate(s), np.concatenate(a), np.concatenate(n))
 
 
 def split_episodes(
-    episodes: Sequence[EpisodeArrays], val_fraction: float, seed: int
-) -> tuple[list[EpisodeArrays], list[EpisodeArrays]]:
+    episodes: Sequence[EpisodeRecord], val_fraction: float, seed: int
+) -> tuple[list[EpisodeRecord], list[EpisodeRecord]]:
     """(train, held-out): a seeded ``val_fraction`` of the episodes (at least one when there are
     two or more and the fraction is positive) is held out."""
     n = len(episodes)
@@ -187,7 +184,8 @@ class DeltaModel:
     action_std: FloatArray
     delta_mean: FloatArray
     delta_std: FloatArray
-    robot_dim: int
+    robot_index: NDArray[np.intp]
+    env_index: NDArray[np.intp]
     constant: NDArray[np.bool_]
     angle: NDArray[np.bool_]
     names: tuple[str, ...]
@@ -207,7 +205,10 @@ class DeltaModel:
         h = h / (1.0 + np.exp(-h))
         robot = h @ w["robot_head.weight"].T + w["robot_head.bias"]
         env = h @ w["env_head.weight"].T + w["env_head.bias"]
-        delta = np.concatenate([robot, env], axis=-1) * self.delta_std + self.delta_mean
+        delta = np.empty(robot.shape[:-1] + self.delta_mean.shape)
+        delta[..., self.robot_index] = robot
+        delta[..., self.env_index] = env
+        delta = delta * self.delta_std + self.delta_mean
         nxt = state + delta
         nxt = np.where(self.angle, wrap_angle(nxt), nxt)
         return np.where(self.constant, state, nxt)
@@ -236,7 +237,7 @@ def _feature_flags(
 
 
 def open_loop_errors(
-    model: DeltaModel, episodes: Sequence[EpisodeArrays], horizons: Sequence[int] = EVAL_HORIZONS
+    model: DeltaModel, episodes: Sequence[EpisodeRecord], horizons: Sequence[int] = EVAL_HORIZONS
 ) -> dict[str, float]:
     """Mean open-loop errors of ``model`` and of the constant-state predictor after ``k`` steps
     (for every start frame with ``k`` recorded steps ahead): ``model_l2_k``/``const_l2_k`` in raw
@@ -246,7 +247,7 @@ def open_loop_errors(
         m_l2, c_l2, m_z, c_z = [], [], [], []
         for e in episodes:
             states = episode_states(e)
-            actions = e.action.astype(np.float64)
+            actions = np.asarray(e.actions, dtype=np.float64)
             starts = np.arange(len(states) - k)
             if len(starts) == 0:
                 continue
@@ -294,27 +295,31 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
     _check_resume(out, record, ("dataset", "seed", "batch_size", "hidden", "val_fraction"))
     write_json(out / "config.json", record)
 
-    episodes = read_episodes(spec.root)
+    from kinder_gym.demos.lerobot_format import load_records
+
+    episodes = load_records(spec.root)
     train_eps, val_eps = split_episodes(episodes, args.val_fraction, args.seed)
     data = transitions(train_eps)
-    names = (*spec.state_names, *spec.env_state_names)
+    names = tuple(spec.split.feature_names)
+    robot_index = spec.split.state_indices
+    env_index = spec.split.env_indices
     constant, angle = _feature_flags(names, np.concatenate([episode_states(e) for e in episodes]))
     deltas = _targets(data, angle)
     s_mean, s_std = data.state.mean(0), data.state.std(0) + 1e-8
     a_mean, a_std = data.action.mean(0), data.action.std(0) + 1e-8
     d_mean, d_std = deltas.mean(0), deltas.std(0) + 1e-8
-    robot_dim = len(spec.state_names)
 
     torch.manual_seed(args.seed)
-    net = _torch_model(
-        data.state.shape[1] + data.action.shape[1], robot_dim, len(names) - robot_dim, args.hidden
-    )
+    in_dim = data.state.shape[1] + data.action.shape[1]
+    net = _torch_model(in_dim, len(robot_index), len(env_index), args.hidden)
     optimizer = torch.optim.Adam(net.parameters(), lr=args.lr)
     x_all = torch.as_tensor(
         np.concatenate([(data.state - s_mean) / s_std, (data.action - a_mean) / a_std], 1),
         dtype=torch.float32,
     )
-    y_all = torch.as_tensor((deltas - d_mean) / d_std, dtype=torch.float32)
+    y_norm = (deltas - d_mean) / d_std
+    y_robot = torch.as_tensor(y_norm[:, robot_index], dtype=torch.float32)
+    y_env = torch.as_tensor(y_norm[:, env_index], dtype=torch.float32)
 
     epoch = 0
     resume = latest_checkpoint(out)
@@ -328,8 +333,9 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
     def numpy_model() -> DeltaModel:
         weights = {k: v.detach().double().numpy().copy() for k, v in net.state_dict().items()}
         return DeltaModel(
-            weights, s_mean, s_std, a_mean, a_std, d_mean, d_std, robot_dim, constant, angle, names
-        )
+            weights, s_mean, s_std, a_mean, a_std, d_mean, d_std, robot_index, env_index,
+            constant, angle, names,
+        )  # fmt: skip
 
     def write(ckpt: Path) -> None:
         torch.save(
@@ -351,10 +357,9 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
         for lo in range(0, n, args.batch_size):
             idx = perm[lo : lo + args.batch_size]
             robot, env = net(x_all[idx])
-            y = y_all[idx]
-            loss = torch.mean((robot - y[:, :robot_dim]) ** 2)
-            if y.shape[1] > robot_dim:
-                loss = loss + torch.mean((env - y[:, robot_dim:]) ** 2)
+            loss = torch.mean((robot - y_robot[idx]) ** 2)
+            if len(env_index):
+                loss = loss + torch.mean((env - y_env[idx]) ** 2)
             optimizer.zero_grad(set_to_none=True)
             loss.backward()  # type: ignore[no-untyped-call]
             optimizer.step()
@@ -377,7 +382,7 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
     bar.close()
     model = numpy_model()
     evaluation = {
-        "held_out_episodes": [e.index for e in val_eps],
+        "held_out_episode_seeds": [e.seed for e in val_eps],
         "train_transitions": n,
         "epochs": epoch,
         **(open_loop_errors(model, val_eps) if val_eps else {}),
@@ -405,7 +410,8 @@ def save_delta_model(ckpt: Path, model: DeltaModel, env_id: str, epoch: int) -> 
     arrays.update(
         state_mean=model.state_mean, state_std=model.state_std, action_mean=model.action_mean,
         action_std=model.action_std, delta_mean=model.delta_mean, delta_std=model.delta_std,
-        constant=model.constant, angle=model.angle,
+        constant=model.constant, angle=model.angle, robot_index=model.robot_index,
+        env_index=model.env_index,
     )  # fmt: skip
     with (ckpt / "model.npz").open("wb") as f:
         np.savez(f, **arrays)  # type: ignore[arg-type]
@@ -415,7 +421,6 @@ def save_delta_model(ckpt: Path, model: DeltaModel, env_id: str, epoch: int) -> 
             "method": "mbrl",
             "env_id": env_id,
             "step": epoch,
-            "robot_dim": model.robot_dim,
             "names": list(model.names),
         },
     )
@@ -431,8 +436,8 @@ def load_delta_model(path: Path | str) -> tuple[DeltaModel, dict[str, Any]]:
         weights = {k[2:]: z[k] for k in z.files if k.startswith("w/")}
         model = DeltaModel(
             weights, z["state_mean"], z["state_std"], z["action_mean"], z["action_std"],
-            z["delta_mean"], z["delta_std"], int(meta["robot_dim"]), z["constant"], z["angle"],
-            tuple(meta["names"]),
+            z["delta_mean"], z["delta_std"], z["robot_index"], z["env_index"], z["constant"],
+            z["angle"], tuple(meta["names"]),
         )  # fmt: skip
     return model, meta
 

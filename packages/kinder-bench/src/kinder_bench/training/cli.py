@@ -64,7 +64,8 @@ def _diffusion(
         args = DiffusionTrainArgs(
             dataset=dataset, out=out, method=method, steps=steps, preset=preset,
             batch_size=batch_size, lr=lr, warmup_steps=warmup_steps, env=env,
-            save_every=save_every, log_every=log_every, seed=seed, device=device, num_workers=num_workers, ema=ema,
+            save_every=save_every, log_every=log_every, seed=seed, device=device,
+            num_workers=num_workers, ema=ema,
         )  # fmt: skip
         if args.device != "cuda":
             torch.set_num_threads(max(1, min(torch.get_num_threads(), 4)))
