@@ -23,10 +23,10 @@ os.environ.setdefault("HF_HUB_OFFLINE", "1")
 def scripted_action(
     obs: np.ndarray, rng: np.random.Generator, noise: float, gain: float | None
 ) -> np.ndarray:
-    """``gain * (target - robot)``, or (``gain=None``) a step of length 0.1 straight at the
+    """``gain * (target - robot)``, or (``gain=None``) a step of length 0.04 straight at the
     target; plus Gaussian noise of std ``noise``; clipped to the action box."""
     delta = obs[3:5] - obs[0:2]
-    step = gain * delta if gain is not None else 0.1 * delta / max(np.linalg.norm(delta), 1e-9)
+    step = gain * delta if gain is not None else 0.04 * delta / max(np.linalg.norm(delta), 1e-9)
     return np.clip(step + rng.normal(0.0, noise, 2), -0.1, 0.1)
 
 

@@ -119,7 +119,17 @@ def args_to_dict(args: Any) -> dict[str, Any]:
 
 
 def field_docs(args_cls: type[Any]) -> dict[str, str]:
-    """The docstrings written under each field of a dataclass (CleanRL style)."""
+    """The docstrings written under each field of a dataclass (CleanRL style), including the
+    fields it inherits from dataclass bases."""
+    docs: dict[str, str] = {}
+    for klass in reversed(args_cls.__mro__):
+        if dataclasses.is_dataclass(klass) and klass is not args_cls:
+            docs.update(_own_field_docs(klass))
+    docs.update(_own_field_docs(args_cls))
+    return docs
+
+
+def _own_field_docs(args_cls: type[Any]) -> dict[str, str]:
     try:
         source = textwrap.dedent(inspect.getsource(args_cls))
     except (OSError, TypeError):
