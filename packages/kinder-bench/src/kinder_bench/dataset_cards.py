@@ -86,8 +86,13 @@ def card_text(spec: DatasetSpec, base: Path = DATASETS_DIR) -> str:
         ("env id", f"`{spec.env_id}`"),
         (
             "versions",
-            ", ".join(f"{k} {v}" for k, v in sorted((summary or {}).get("versions", {}).items()))
-            or "n/a",
+            (
+                ", ".join(
+                    f"{k} {v}" for k, v in sorted((summary or {}).get("versions", {}).items())
+                )
+                or "n/a"
+            )
+            + f"; written with lerobot {_version('lerobot')}",
         ),
         (
             "source",
@@ -180,6 +185,15 @@ def card_text(spec: DatasetSpec, base: Path = DATASETS_DIR) -> str:
         "",
     ]
     return "\n".join(lines)
+
+
+def _version(name: str) -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version(name)
+    except metadata.PackageNotFoundError:
+        return "(not installed)"
 
 
 def _env_dim(dataset: Path) -> int:

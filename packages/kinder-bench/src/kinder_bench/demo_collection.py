@@ -319,7 +319,7 @@ def collect(
             rate = successes / len(attempts) if attempts else 1.0
             batch = max(1, math.ceil(needed / max(rate, 0.05)))
             fresh = list(range(frontier, min(frontier + batch, resolved.max_attempts)))
-            indices = gaps + fresh
+            indices = gaps or fresh  # fill the gaps first: they may already suffice
             if not indices:
                 break  # the attempt budget is spent
             tasks = [
