@@ -22,15 +22,17 @@ Deviations and choices, written down:
   to MIN_MAX (:func:`diffusion_config`; tested).
 * lerobot's ``DiffusionPolicy`` has no EMA; this trainer keeps one (see above).
 * lerobot's default optimiser preset is Adam; the paper's is AdamW, used here.
-* The paper trained "up to 5001 epochs"; here the budget is a number of optimiser steps
-  (``--steps``). As in lerobot, the last ``horizon - n_action_steps - n_obs_steps + 1 = 7`` frames
-  of each episode are not used as sample starts, and actions past an episode's end are padded by
+* The paper trained "up to 5001 epochs" (about 1.2M steps at 100 demos of ~150 frames and batch
+  64); here the budget is a number of optimiser steps, ``--steps``, 100k by default.
+* As in lerobot, the last ``horizon - n_action_steps - n_obs_steps + 1 = 7`` frames of each
+  episode are not used as sample starts, and actions past an episode's end are padded by
   repeating the last one.
 * The ``cpu`` preset (smoke runs and tests, not for results) shrinks the UNet to 16/32/64 with a
   32-d timestep embedding, resizes images to 64×64 and uses batch 16. Everything else is the
   paper's. ``--lr`` and ``--warmup-steps`` default to the paper's 1e-4 and 500.
-* At evaluation the camera images are rendered from the live state and resized (bilinear) to the
-  dataset's image size; this rendering happens inside ``act`` and so counts as inference time.
+* At evaluation the camera images are rendered from the live state with the function that
+  rendered the training images (``kinder_gym.demos.layout.camera_frames``); this rendering
+  happens inside ``act`` and so counts as inference time.
 """
 
 from __future__ import annotations
@@ -392,7 +394,9 @@ def train_diffusion(args: DiffusionTrainArgs, progress: bool = True) -> Path:
 
     Writes ``config.json`` (the arguments and versions), ``progress.csv`` (step, loss, lr,
     samples/s) and ``checkpoints/step_*/`` every ``save_every`` steps and at the end. Rerunning
-    with the same ``out`` resumes from the newest checkpoint (bit-identical on the CPU).
+    with the same ``out`` resumes from the newest checkpoint (bit-identical on the CPU). The
+    learning-rate schedule spans ``steps``: raising ``steps`` to extend a run changes the schedule
+    from the resume point on.
     """
     import torch
     from lerobot.policies.diffusion.modeling_diffusion import DiffusionPolicy
@@ -463,6 +467,7 @@ def train_diffusion(args: DiffusionTrainArgs, progress: bool = True) -> Path:
         num_workers=args.num_workers,
         pin_memory=device == "cuda",
         persistent_workers=False,
+        generator=torch.Generator().manual_seed(args.seed),  # keeps the global RNG untouched
     )
     log = CsvLog(out / "progress.csv", ("step", "loss", "lr", "samples_per_s", "elapsed_s"))
 
