@@ -148,7 +148,7 @@ def test_dp_agent_in_the_runner(dp_run: Path, tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="needs --arg checkpoint"):
         make_agent("dp", make_env(MOTION), {})
     with pytest.raises(ValueError, match="lacks"):  # another robot: features missing
-        make_agent("dp", make_env("DynObstruction2D-o1"), {"checkpoint": str(dp_run)})
+        make_agent("dp", make_env("kinder/DynObstruction2D-o1-v0"), {"checkpoint": str(dp_run)})
     with pytest.raises(ValueError, match="expects a policy trained on"):
         run_ood(dp_run, tmp_path / "ood", episodes=1, seeds=(0,), executor="inline")
 
@@ -197,7 +197,7 @@ def test_dpes_learns_the_toy_task_far_above_random(toy_direct: Path, tmp_path: P
     """A task learnable in a CPU-minute: reach a target whose position is in the environment
     state. DPES (state-only: the toy has no cameras in this dataset) is trained for 300 steps of
     batch 64 (the cpu preset, lr 1e-3), then evaluated on 20 episodes with random actions as the
-    reference. Measured here: DPES 13/20, random 1/20."""
+    reference. Measured here: DPES 15/20, random 1/20."""
     out = tmp_path / "dpes"
     train_diffusion(
         DiffusionTrainArgs(

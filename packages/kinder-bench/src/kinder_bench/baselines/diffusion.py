@@ -667,7 +667,7 @@ class DiffusionAgent(Agent[DiffusionAgentArgs]):
         features = self.obs_map.features(self.observed_state(obs))
         batch: dict[str, Any] = {}
         for key, value in features.items():
-            tensor = torch.from_numpy(np.ascontiguousarray(value))
+            tensor = torch.from_numpy(np.array(value))  # a writable copy
             if value.dtype == np.uint8:
                 tensor = tensor.permute(2, 0, 1).float() / 255.0
             batch[key] = tensor
