@@ -627,8 +627,10 @@ class DiffusionAgentArgs:
 
 
 class DiffusionAgent(Agent[DiffusionAgentArgs]):
-    """A trained diffusion policy (DP). Keeps the last 2 observations and the queue of the 8
-    actions still to execute per episode; the denoising noise comes from the agent's seed."""
+    """A trained diffusion policy (DP: camera images and the robot state).
+
+    Keeps the last 2 observations and the queue of the 8 actions still to execute per episode;
+    the denoising noise comes from the agent's seed."""
 
     name = "dp"
     Args = DiffusionAgentArgs
@@ -681,7 +683,7 @@ class DiffusionAgent(Agent[DiffusionAgentArgs]):
 
 
 class DPESAgent(DiffusionAgent):
-    """A trained diffusion policy with environment states (DPES)."""
+    """A trained diffusion policy with environment states (DPES: images, robot and env state)."""
 
     name = "dpes"
     method = "dpes"

@@ -451,7 +451,7 @@ class MBRLArgs(MPCArgs):
 
 
 class MBRLAgent(MPCAgent):
-    """Predictive-sampling MPC (:class:`MPCAgent`) rolled out on a learned state-delta model.
+    """MPC's predictive sampling rolled out on a learned state-delta model (MBRL).
 
     The planning state is the Box observation vector; a step predicts the dataset's features with
     the model (others stay fixed) and scores the predicted state with the env's ``goal_reached``

@@ -2,9 +2,10 @@
 
 A policy trained on DynObstruction2D-o1 (one obstruction) is evaluated with the standard runner
 on DynObstruction2D-o0, -o1, -o2 and -o3 (0–3 obstructions), all with the paper's 200-step budget.
-Only policies whose inputs do not depend on the object count transfer: DP (images + robot state)
-does; DPES's environment-state vector changes size with the object count, so its agent refuses
-the other envs with an error naming the missing features (recorded as failed episodes).
+The paper runs it for the imitation baselines that need no env-specific state (DP, VLA): DP's
+inputs (the image and the robot state) exist in every variant. The agents pick features by name,
+so a DPES policy also runs on o2 and o3 (it sees obstruction0 and not the extra ones) but not on
+o0, which lacks obstruction0: those episodes are recorded as errors naming the missing features.
 """
 
 from __future__ import annotations

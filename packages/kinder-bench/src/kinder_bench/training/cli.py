@@ -177,7 +177,7 @@ def train_mbrl_command(
 def ood_command(
     checkpoint: Annotated[Path, typer.Option(help="A DP run (trained on DynObstruction2D-o1).")],
     out: Annotated[Path, typer.Option(help="Run directory of the evaluation (resumable).")],
-    agent: Annotated[str, typer.Option(help="dp (DPES cannot change the object count).")] = "dp",
+    agent: Annotated[str, typer.Option(help="dp (the paper's), or dpes (fails on o0).")] = "dp",
     seeds: Annotated[str, typer.Option(help="Run seeds, e.g. 0-4.")] = "0-4",
     episodes: Annotated[int, typer.Option(help="Episodes per seed.")] = 50,
     workers: Annotated[int | None, typer.Option(help="Worker processes.")] = None,
