@@ -10,13 +10,15 @@ Model (``StateDeltaModel``): input ``[state, action]`` (state = the full Box obs
 of the dataset's env; the dataset's ``StateSplit`` says which features are the robot's), a trunk
 of two hidden layers of 256 with SiLU, and two linear heads predicting the robot-state delta and
 the environment-state delta. Inputs and both targets are z-scored per feature (mean and std over
-the training transitions, std + 1e-8); the loss is MSE(robot head) + MSE(env head); Adam, lr
-1e-3, batch 512, shuffled every epoch (the upstream default is 1000 epochs).
+the training transitions; upstream adds 1e-8 to the std, here a std below 1e-6 is replaced by 1,
+because a feature that never varies in the training episodes but does in held-out ones, e.g. a
+rarely pressed button, otherwise blows the inputs up by 1e8); the loss is MSE(robot head) +
+MSE(env head); Adam, lr 1e-3, batch 512, shuffled every epoch (upstream's default: 1000 epochs).
 
 Prediction: ``next = state + delta``, except that
 
-* features constant across the whole dataset are copied from the current state (upstream's
-  ``preserved_indices``), and
+* features constant across the training episodes are copied from the current state (upstream's
+  ``preserved_indices``: constant across all demos), and
 * angles (features named ``*.theta`` or ``*.yaw`` whose data lie in [-π, π]) are trained on the
   wrapped delta and re-wrapped after the step (upstream wraps StickButton2D's two angles).
 
@@ -222,6 +224,14 @@ class DeltaModel:
         return np.asarray(out)
 
 
+def _scale(x: FloatArray) -> FloatArray:
+    """Per-feature std for z-scoring; 1 where the std is below 1e-6 (a feature that does not vary
+    in the training data must not blow up when it does vary at test time)."""
+    std = x.std(0)
+    scale: FloatArray = np.where(std < 1e-6, 1.0, std)
+    return scale
+
+
 def _targets(data: Transitions, angle: NDArray[np.bool_]) -> FloatArray:
     delta = data.next_state - data.state
     return np.where(angle, wrap_angle(delta), delta)
@@ -303,11 +313,12 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
     names = tuple(spec.split.feature_names)
     robot_index = spec.split.state_indices
     env_index = spec.split.env_indices
-    constant, angle = _feature_flags(names, np.concatenate([episode_states(e) for e in episodes]))
+    train_states = np.concatenate([episode_states(e) for e in train_eps])
+    constant, angle = _feature_flags(names, train_states)
     deltas = _targets(data, angle)
-    s_mean, s_std = data.state.mean(0), data.state.std(0) + 1e-8
-    a_mean, a_std = data.action.mean(0), data.action.std(0) + 1e-8
-    d_mean, d_std = deltas.mean(0), deltas.std(0) + 1e-8
+    s_mean, s_std = data.state.mean(0), _scale(data.state)
+    a_mean, a_std = data.action.mean(0), _scale(data.action)
+    d_mean, d_std = deltas.mean(0), _scale(deltas)
 
     torch.manual_seed(args.seed)
     in_dim = data.state.shape[1] + data.action.shape[1]
