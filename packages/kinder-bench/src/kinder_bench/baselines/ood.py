@@ -31,6 +31,7 @@ def run_ood(
     workers: int | None = None,
     executor: str = "process",
     progress: bool = True,
+    device: str = "cpu",
 ) -> str:
     """Evaluate ``checkpoint`` on :data:`OOD_ENVS` into ``out``; returns the report table."""
     import json
@@ -46,7 +47,7 @@ def run_ood(
         RunConfig(
             env_id,
             agent,
-            {"checkpoint": str(Path(checkpoint).resolve())},
+            {"checkpoint": str(Path(checkpoint).resolve()), "device": device},
             seeds=tuple(seeds),
             episodes=episodes,
             max_steps=OOD_MAX_STEPS,

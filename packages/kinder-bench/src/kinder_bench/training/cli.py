@@ -182,6 +182,7 @@ def ood_command(
     episodes: Annotated[int, typer.Option(help="Episodes per seed.")] = 50,
     workers: Annotated[int | None, typer.Option(help="Worker processes.")] = None,
     executor: Annotated[str, typer.Option(help="process, inline or ray.")] = "process",
+    device: Annotated[str, typer.Option(help="Where the policy runs: cpu, cuda, auto.")] = "cpu",
     progress: ProgressOpt = True,
 ) -> None:
     """The paper's OOD test: a policy trained on DynObstruction2D-o1 evaluated on o0-o3."""
@@ -191,7 +192,7 @@ def ood_command(
     with _user_errors():
         table = run_ood(
             checkpoint, out, agent=agent, seeds=parse_seeds(seeds), episodes=episodes,
-            workers=workers, executor=executor, progress=progress,
+            workers=workers, executor=executor, progress=progress, device=device,
         )  # fmt: skip
     typer.echo(f"OOD evaluation on {', '.join(OOD_ENVS)}:")
     typer.echo(table)
