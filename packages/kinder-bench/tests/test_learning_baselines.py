@@ -153,6 +153,22 @@ def test_dp_agent_in_the_runner(dp_run: Path, tmp_path: Path) -> None:
         run_ood(dp_run, tmp_path / "ood", episodes=1, seeds=(0,), executor="inline")
 
 
+def test_ood_command_evaluates_every_variant(
+    dp_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The OOD command on Motion2D (trained on p0, evaluated on p0 and p1: same robot, more
+    passages) stands in for DynObstruction2D-o1 → o0..o3, which has no fixture dataset."""
+    from kinder_bench.baselines import ood
+
+    monkeypatch.setattr(ood, "TRAIN_ENV", MOTION)
+    monkeypatch.setattr(ood, "OOD_ENVS", (MOTION, "kinder/Motion2D-p1-v0"))
+    monkeypatch.setattr(ood, "OOD_MAX_STEPS", 3)
+    table = run_ood(dp_run, tmp_path / "ood", episodes=1, seeds=(0,), executor="inline")
+    assert "Motion2D-p0" in table and "Motion2D-p1" in table
+    records = [json.loads(line) for line in (tmp_path / "ood/results.jsonl").open()]
+    assert len(records) == 2 and all(r["error"] is None for r in records)
+
+
 def test_dpes_normalises_the_environment_state(motion: Path) -> None:
     """lerobot leaves ``observation.environment_state`` unnormalised unless the normalisation
     mapping names ENV (the trap); DPES's config names it."""
