@@ -10,7 +10,7 @@ Model (``StateDeltaModel``): input ``[state, action]`` (state = the full Box obs
 of the dataset's env; the dataset's ``StateSplit`` says which features are the robot's), a trunk
 of two hidden layers of 256 with SiLU, and two linear heads predicting the robot-state delta and
 the environment-state delta. Inputs and both targets are z-scored per feature (mean and std over
-the training transitions; upstream adds 1e-8 to the std, here a std below 1e-6 is replaced by 1,
+the training transitions, std + 1e-8 as upstream; but an *input* std below 1e-6 is replaced by 1,
 because a feature that never varies in the training episodes but does in held-out ones, e.g. a
 rarely pressed button, otherwise blows the inputs up by 1e8); the loss is MSE(robot head) +
 MSE(env head); Adam, lr 1e-3, batch 512, shuffled every epoch (upstream's default: 1000 epochs).
@@ -172,6 +172,12 @@ def split_episodes(
     )
 
 
+def _silu(x: FloatArray) -> FloatArray:
+    """``x * sigmoid(x)``, without overflow for large ``|x|`` (rollouts far from the data)."""
+    out: FloatArray = x * 0.5 * (1.0 + np.tanh(0.5 * x))
+    return out
+
+
 @dataclasses.dataclass
 class DeltaModel:
     """A trained state-delta model in numpy (what the agent rolls out; no torch needed).
@@ -201,10 +207,8 @@ class DeltaModel:
             axis=-1,
         )
         w = self.weights
-        h = x @ w["trunk.0.weight"].T + w["trunk.0.bias"]
-        h = h / (1.0 + np.exp(-h))
-        h = h @ w["trunk.2.weight"].T + w["trunk.2.bias"]
-        h = h / (1.0 + np.exp(-h))
+        h = _silu(x @ w["trunk.0.weight"].T + w["trunk.0.bias"])
+        h = _silu(h @ w["trunk.2.weight"].T + w["trunk.2.bias"])
         robot = h @ w["robot_head.weight"].T + w["robot_head.bias"]
         env = h @ w["env_head.weight"].T + w["env_head.bias"]
         delta = np.empty(robot.shape[:-1] + self.delta_mean.shape)
@@ -318,7 +322,7 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
     deltas = _targets(data, angle)
     s_mean, s_std = data.state.mean(0), _scale(data.state)
     a_mean, a_std = data.action.mean(0), _scale(data.action)
-    d_mean, d_std = deltas.mean(0), _scale(deltas)
+    d_mean, d_std = deltas.mean(0), deltas.std(0) + 1e-8  # a delta that never varies stays ~0
 
     torch.manual_seed(args.seed)
     in_dim = data.state.shape[1] + data.action.shape[1]
