@@ -37,6 +37,9 @@ AGENTS: dict[str, str] = {
     "llm_con": "kinder_bench.baselines.fm_planning.agents:LLMConAgent",
     "vlm_con": "kinder_bench.baselines.fm_planning.agents:VLMConAgent",
     "vla": "kinder_bench.baselines.vla:VLAAgent",
+    "dp": "kinder_bench.baselines.diffusion:DiffusionAgent",
+    "dpes": "kinder_bench.baselines.diffusion:DPESAgent",
+    "mbrl": "kinder_bench.baselines.mbrl:MBRLAgent",
 }
 
 

@@ -144,3 +144,13 @@ class Agent(abc.ABC, Generic[ArgsT]):
                 np.asarray(action, dtype=np.float64), self.action_space.low, self.action_space.high
             ),
         )
+
+
+def needs_checkpoint(args: Any, train_command: str) -> str | None:
+    """The :meth:`Agent.unavailable` reason of a learned agent run without ``checkpoint``."""
+    if getattr(args, "checkpoint", ""):
+        return None
+    return (
+        f"needs a trained checkpoint: --arg checkpoint=DIR (train one with "
+        f"`kinder train {train_command}`)"
+    )

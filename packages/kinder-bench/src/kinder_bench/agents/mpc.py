@@ -18,6 +18,10 @@ episode is never touched) with the env's own (sparse) reward, and keeps the best
 
 The first action of the best candidate is executed; the agent solves again every
 ``replan_interval`` steps and executes the stored solution in between.
+
+The rollout model is pluggable: :meth:`MPCAgent.transition` (default: the env's ``transition``)
+and :meth:`MPCAgent.planning_state` (default: the observation as a model state) are what the
+MBRL baseline (:mod:`kinder_bench.baselines.mbrl`) overrides to plan on a learned model.
 """
 
 from __future__ import annotations
@@ -103,11 +107,21 @@ class MPCAgent(Agent[MPCArgs]):
 
     def act(self, obs: Any) -> FloatArray:
         if self._plan is None or self._since_solve >= self.args.replan_interval:
-            self._solve(self.observed_state(obs))
+            self._solve(self.planning_state(obs))
         assert self._plan is not None
         action: FloatArray = self._plan[self._since_solve].copy()
         self._since_solve += 1
         return action
+
+    def planning_state(self, obs: Any) -> Any:
+        """The state rollouts start from: the observation as a model state. Subclasses that
+        plan on another model (MBRL) return that model's state."""
+        return self.observed_state(obs)
+
+    def transition(self, state: Any, action: FloatArray) -> tuple[Any, float, bool]:
+        """One rollout step, ``(next_state, reward, terminated)``: the env model's pure
+        ``transition``. Subclasses plug in a learned model here (MBRL)."""
+        return self._model.transition(state, action)
 
     def _nominal(self) -> FloatArray:
         a, shift = self.args, self._since_solve
@@ -133,7 +147,7 @@ class MPCAgent(Agent[MPCArgs]):
 
     def _rollout_cost(self, state: Any, plan: FloatArray) -> float:
         cost = 0.0
-        transition = self._model.transition
+        transition = self.transition
         for t, action in enumerate(plan):
             state, reward, terminated = transition(state, action)
             cost -= reward

@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Annotated
+
 import typer
 
 train_app = typer.Typer(
@@ -9,3 +15,184 @@ train_app = typer.Typer(
     "--arg checkpoint=DIR`.",
     no_args_is_help=True,
 )
+
+
+@contextlib.contextmanager
+def _user_errors() -> Iterator[None]:
+    try:
+        yield
+    except (ValueError, FileNotFoundError, ModuleNotFoundError, ImportError) as e:
+        typer.secho(f"Error: {e}", fg=typer.colors.RED, err=True)
+        raise typer.Exit(2) from None
+
+
+DatasetOpt = Annotated[Path, typer.Option(help="The demonstration dataset (LeRobot v3 directory).")]
+OutOpt = Annotated[
+    Path,
+    typer.Option(
+        help="Run directory; rerunning with the same one resumes from its last checkpoint."
+    ),
+]
+EnvOpt = Annotated[str | None, typer.Option(help="Env id (default: the one the dataset names).")]
+SeedOpt = Annotated[int, typer.Option(help="Seed of the weights, the sample order and the noise.")]
+ProgressOpt = Annotated[bool, typer.Option("--progress/--no-progress", help="Show a progress bar.")]
+
+
+def _diffusion(
+    method: str,
+    dataset: Path,
+    out: Path,
+    steps: int,
+    preset: str,
+    batch_size: int | None,
+    lr: float,
+    warmup_steps: int,
+    env: str | None,
+    save_every: int,
+    log_every: int,
+    seed: int,
+    device: str,
+    num_workers: int,
+    ema: bool,
+    progress: bool,
+) -> None:
+    with _user_errors():
+        import torch
+
+        from kinder_bench.baselines.diffusion import DiffusionTrainArgs, train_diffusion
+
+        args = DiffusionTrainArgs(
+            dataset=dataset, out=out, method=method, steps=steps, preset=preset,
+            batch_size=batch_size, lr=lr, warmup_steps=warmup_steps, env=env,
+            save_every=save_every, log_every=log_every, seed=seed, device=device,
+            num_workers=num_workers, ema=ema,
+        )  # fmt: skip
+        if args.device != "cuda":
+            torch.set_num_threads(max(1, min(torch.get_num_threads(), 4)))
+        ckpt = train_diffusion(args, progress=progress)
+    typer.echo(f"checkpoint: {ckpt}")
+    typer.echo(f"evaluate:   kinder bench run --env ENV --agent {method} --arg checkpoint={out}")
+
+
+StepsOpt = Annotated[int, typer.Option(help="Optimiser steps in total.")]
+PresetOpt = Annotated[
+    str, typer.Option(help="paper (the paper's model) or cpu (small, smoke runs).")
+]
+BatchOpt = Annotated[int | None, typer.Option(help="Batch size (default: paper 64, cpu 16).")]
+LrOpt = Annotated[float, typer.Option(help="Peak AdamW learning rate.")]
+WarmupOpt = Annotated[int, typer.Option(help="Linear warm-up steps.")]
+SaveOpt = Annotated[int, typer.Option(help="Checkpoint every this many steps.")]
+LogOpt = Annotated[int, typer.Option(help="Log to progress.csv every this many steps.")]
+DeviceOpt = Annotated[str, typer.Option(help="cpu, cuda or auto.")]
+WorkersOpt = Annotated[int, typer.Option(help="Data-loading worker processes.")]
+EmaOpt = Annotated[bool, typer.Option("--ema/--no-ema", help="Keep an EMA of the weights.")]
+
+
+@train_app.command("dp")
+def train_dp(
+    dataset: DatasetOpt,
+    out: OutOpt,
+    steps: StepsOpt = 100_000,
+    preset: PresetOpt = "paper",
+    batch_size: BatchOpt = None,
+    lr: LrOpt = 1e-4,
+    warmup_steps: WarmupOpt = 500,
+    env: EnvOpt = None,
+    save_every: SaveOpt = 1000,
+    log_every: LogOpt = 100,
+    seed: SeedOpt = 0,
+    device: DeviceOpt = "auto",
+    num_workers: WorkersOpt = 0,
+    ema: EmaOpt = True,
+    progress: ProgressOpt = True,
+) -> None:
+    """Diffusion policy on images + robot state (lerobot DiffusionPolicy, the paper's config)."""
+    _diffusion("dp", dataset, out, steps, preset, batch_size, lr, warmup_steps, env, save_every,
+               log_every, seed, device, num_workers, ema, progress)  # fmt: skip
+
+
+@train_app.command("dpes")
+def train_dpes(
+    dataset: DatasetOpt,
+    out: OutOpt,
+    steps: StepsOpt = 100_000,
+    preset: PresetOpt = "paper",
+    batch_size: BatchOpt = None,
+    lr: LrOpt = 1e-4,
+    warmup_steps: WarmupOpt = 500,
+    env: EnvOpt = None,
+    save_every: SaveOpt = 1000,
+    log_every: LogOpt = 100,
+    seed: SeedOpt = 0,
+    device: DeviceOpt = "auto",
+    num_workers: WorkersOpt = 0,
+    ema: EmaOpt = True,
+    progress: ProgressOpt = True,
+) -> None:
+    """Diffusion policy on images + robot state + environment state (normalised)."""
+    _diffusion("dpes", dataset, out, steps, preset, batch_size, lr, warmup_steps, env, save_every,
+               log_every, seed, device, num_workers, ema, progress)  # fmt: skip
+
+
+@train_app.command("mbrl")
+def train_mbrl_command(
+    dataset: DatasetOpt,
+    out: OutOpt,
+    epochs: Annotated[int, typer.Option(help="Passes over the training transitions.")] = 1000,
+    batch_size: Annotated[int, typer.Option(help="Transitions per step.")] = 512,
+    lr: Annotated[float, typer.Option(help="Adam learning rate.")] = 1e-3,
+    val_fraction: Annotated[float, typer.Option(help="Fraction of episodes held out.")] = 0.1,
+    env: EnvOpt = None,
+    save_every: Annotated[int, typer.Option(help="Checkpoint every this many epochs.")] = 50,
+    seed: SeedOpt = 0,
+    progress: ProgressOpt = True,
+) -> None:
+    """MBRL: the state-delta model that the `mbrl` agent's MPC rolls out; prints its held-out
+    one-step and 10-step open-loop errors."""
+    with _user_errors():
+        import torch
+
+        from kinder_bench.baselines.mbrl import MBRLTrainArgs, train_mbrl
+
+        torch.set_num_threads(max(1, min(torch.get_num_threads(), 4)))
+        args = MBRLTrainArgs(
+            dataset=dataset, out=out, epochs=epochs, batch_size=batch_size, lr=lr,
+            val_fraction=val_fraction, env=env, save_every=save_every, seed=seed,
+        )  # fmt: skip
+        ckpt = train_mbrl(args, progress=progress)
+    evaluation = json.loads((out / "eval.json").read_text())
+    typer.echo(f"checkpoint: {ckpt}")
+    for k in (1, 10):
+        if f"model_l2_{k}" in evaluation:
+            e = {n: evaluation[f"{n}_{k}"] for n in ("model_l2", "model_z", "const_l2", "const_z")}
+            typer.echo(
+                f"held-out {k}-step open-loop error: model {e['model_l2']:.4g} (z "
+                f"{e['model_z']:.3g}), constant-state {e['const_l2']:.4g} (z {e['const_z']:.3g}) "
+                f"over {int(evaluation[f'count_{k}'])} starts"
+            )
+    typer.echo(f"evaluate:   kinder bench run --env ENV --agent mbrl --arg checkpoint={out}")
+
+
+@train_app.command("ood")
+def ood_command(
+    checkpoint: Annotated[Path, typer.Option(help="A DP run (trained on DynObstruction2D-o1).")],
+    out: Annotated[Path, typer.Option(help="Run directory of the evaluation (resumable).")],
+    agent: Annotated[str, typer.Option(help="dp (the paper's), or dpes (fails on o0).")] = "dp",
+    seeds: Annotated[str, typer.Option(help="Run seeds, e.g. 0-4.")] = "0-4",
+    episodes: Annotated[int, typer.Option(help="Episodes per seed.")] = 50,
+    workers: Annotated[int | None, typer.Option(help="Worker processes.")] = None,
+    executor: Annotated[str, typer.Option(help="process, inline or ray.")] = "process",
+    device: Annotated[str, typer.Option(help="Where the policy runs: cpu, cuda, auto.")] = "cpu",
+    progress: ProgressOpt = True,
+) -> None:
+    """The paper's OOD test: a policy trained on DynObstruction2D-o1 evaluated on o0-o3."""
+    from kinder_bench.baselines.ood import OOD_ENVS, run_ood
+    from kinder_bench.cli import parse_seeds
+
+    with _user_errors():
+        table = run_ood(
+            checkpoint, out, agent=agent, seeds=parse_seeds(seeds), episodes=episodes,
+            workers=workers, executor=executor, progress=progress, device=device,
+        )  # fmt: skip
+    typer.echo(f"OOD evaluation on {', '.join(OOD_ENVS)}:")
+    typer.echo(table)

@@ -1,0 +1,160 @@
+"""Train and evaluate one learning baseline (DP, DPES or MBRL) on the paper's benchmark envs.
+
+Shared by ``benchmarks/dp.py``, ``benchmarks/dpes.py`` and ``benchmarks/mbrl.py``. For every env
+(default: the paper's eight) it takes the demonstration dataset
+``datasets/<Env>/data/lerobot`` (made by ``make datasets DATASETS=<Env>``; a missing one is
+reported and skipped), trains into ``<out>/train/<Env>`` and evaluates with the standard runner
+into ``<out>/eval``; then it writes the report (``kinder bench report``) and ``<out>/cells.md``,
+which states the training budget of every cell (demos, steps or epochs, batch, preset, training
+wall time and samples/s from ``progress.csv``). Everything resumes: training continues from its
+last checkpoint, evaluation skips the episodes already in ``results.jsonl``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def parse_args(method: str, argv: list[str] | None = None) -> argparse.Namespace:
+    from kinder_bench.protocol import PAPER_ENVS
+
+    diffusion = method in ("dp", "dpes")
+    p = argparse.ArgumentParser(description=f"Train and evaluate {method.upper()} (see {__file__})")
+    p.add_argument("--env", action="append", help="Env id(s); default: the paper's eight.")
+    p.add_argument("--datasets", type=Path, default=ROOT / "datasets", help="Datasets root.")
+    p.add_argument("--out", type=Path, default=ROOT / "runs" / "learning" / method)
+    p.add_argument("--seeds", default="0-4", help="Evaluation run seeds (paper: 0-4).")
+    p.add_argument("--episodes", type=int, default=50, help="Episodes per seed (paper: 50).")
+    p.add_argument("--workers", type=int, default=None, help="Evaluation worker processes.")
+    p.add_argument("--executor", default="process", help="process, inline or ray.")
+    p.add_argument("--skip-eval", action="store_true", help="Only train.")
+    if diffusion:
+        p.add_argument("--steps", type=int, default=100_000, help="Optimiser steps per env.")
+        p.add_argument("--preset", default="paper", help="paper or cpu.")
+        p.add_argument("--batch-size", type=int, default=None)
+        p.add_argument("--device", default="auto")
+        p.add_argument("--num-workers", type=int, default=0, help="Data-loading workers.")
+        p.add_argument("--save-every", type=int, default=1000)
+    else:
+        p.add_argument("--epochs", type=int, default=1000, help="Epochs per env (paper: 1000).")
+        p.add_argument("--horizon", type=int, default=None, help="MPC horizon (default 100).")
+    args = p.parse_args(argv)
+    args.env = args.env or list(PAPER_ENVS)
+    return args
+
+
+def dataset_dir(datasets: Path, env_id: str) -> Path:
+    from kinder_bench.envs import short_id
+
+    return datasets / short_id(env_id) / "data" / "lerobot"
+
+
+def _throughput(run: Path) -> str:
+    rows = (
+        list(csv.DictReader((run / "progress.csv").open()))
+        if (run / "progress.csv").exists()
+        else []
+    )
+    if not rows:
+        return "--"
+    return f"{sum(float(r['samples_per_s']) for r in rows) / len(rows):.0f}"
+
+
+def main(method: str, argv: list[str] | None = None) -> int:
+    import torch
+
+    from kinder_bench.baselines.demo_data import read_dataset_spec
+    from kinder_bench.cli import parse_seeds
+    from kinder_bench.envs import resolve_env_id, short_id
+    from kinder_bench.report import write_report
+    from kinder_bench.results import write_json
+    from kinder_bench.runner import RunConfig, run_benchmark
+
+    os.environ.setdefault("HF_HUB_OFFLINE", "1")
+    args = parse_args(method, argv)
+    cells = []
+    runs = []
+    for env in args.env:
+        env_id = resolve_env_id(env)
+        data = dataset_dir(args.datasets, env_id)
+        if not (data / "meta" / "info.json").exists():
+            print(f"skip {env_id}: no dataset at {data}; make it with "
+                  f"`make datasets DATASETS={short_id(env_id)}`", file=sys.stderr)  # fmt: skip
+            continue
+        spec = read_dataset_spec(data)
+        run = args.out / "train" / short_id(env_id)
+        t0 = time.perf_counter()
+        if method == "mbrl":
+            from kinder_bench.baselines.mbrl import MBRLTrainArgs, train_mbrl
+
+            torch.set_num_threads(1)
+            train_mbrl(MBRLTrainArgs(dataset=data, out=run, epochs=args.epochs))
+            budget = f"{args.epochs} epochs, batch 512"
+            agent_args: dict[str, object] = {"checkpoint": str(run)}
+            if args.horizon is not None:
+                agent_args["horizon"] = args.horizon
+        else:
+            from kinder_bench.baselines.diffusion import (
+                PRESET_BATCH,
+                DiffusionTrainArgs,
+                train_diffusion,
+            )
+
+            if args.device != "cuda" and not torch.cuda.is_available():
+                torch.set_num_threads(1)
+            train_diffusion(
+                DiffusionTrainArgs(
+                    dataset=data,
+                    out=run,
+                    method=method,
+                    steps=args.steps,
+                    preset=args.preset,
+                    batch_size=args.batch_size,
+                    device=args.device,
+                    num_workers=args.num_workers,
+                    save_every=args.save_every,
+                )
+            )
+            batch = args.batch_size or PRESET_BATCH[args.preset]
+            budget = f"{args.steps} steps × batch {batch}, preset {args.preset}"
+            agent_args = {"checkpoint": str(run), "device": args.device}
+        cells.append(
+            {
+                "env": env_id,
+                "demos": spec.num_episodes,
+                "frames": spec.num_frames,
+                "budget": budget,
+                "this_call_s": round(time.perf_counter() - t0, 1),
+                "samples_per_s": _throughput(run),
+            }
+        )
+        runs.append(
+            RunConfig(env_id, method, agent_args, seeds=parse_seeds(args.seeds),
+                      episodes=args.episodes)
+        )  # fmt: skip
+    if not cells:
+        print("no datasets found; nothing to do", file=sys.stderr)
+        return 1
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_json(args.out / "cells.json", cells)
+    lines = ["| env | demos | frames | training budget | samples/s |", "|---|---|---|---|---|"]
+    lines += [
+        f"| {c['env']} | {c['demos']} | {c['frames']} | {c['budget']} | {c['samples_per_s']} |"
+        for c in cells
+    ]
+    (args.out / "cells.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    if not args.skip_eval:
+        run_benchmark(runs, args.out / "eval", executor=args.executor, workers=args.workers)
+        table, _ = write_report([args.out / "eval"])
+        print(table)
+    print(json.dumps({"out": str(args.out)}))
+    return 0
