@@ -32,6 +32,7 @@ AGENTS: dict[str, str] = {
     "random": "kinder_bench.agents.random_agent:RandomAgent",
     "mpc": "kinder_bench.agents.mpc:MPCAgent",
     "bilevel_planning": "kinder_bench.baselines.bilevel_planning:BilevelPlanningAgent",
+    "gsc": "kinder_bench.baselines.gsc.agent:GSCAgent",
 }
 
 

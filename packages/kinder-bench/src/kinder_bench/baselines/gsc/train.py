@@ -272,12 +272,12 @@ def train_gsc(
     transitions = prepare_transitions(config, env, records, show_progress)
     data_seconds = time.perf_counter() - t0
 
+    torch.manual_seed(config.seed)  # network initialisation
     model = build_model(config, env, transitions)
     data = _skill_data(model, transitions)
     params = list(model.score_nets.parameters()) + list(model.classifiers.parameters())
     opt = torch.optim.Adam(params, lr=config.lr)
     gen = torch.Generator().manual_seed(config.seed)
-    torch.manual_seed(config.seed)
     step, train_seconds = 0, 0.0
     state_file = out / TRAIN_STATE_FILE
     if state_file.is_file() and (out / "model.pt").is_file():
@@ -358,8 +358,8 @@ def train_gsc(
                 total = total + score_loss + cls_loss
                 acc = ((logits > 0).float() == d.cls_y[ci]).float().mean()
                 s = sums[op]
-                s[0] += float(score_loss)
-                s[1] += float(cls_loss)
+                s[0] += float(score_loss.detach())
+                s[1] += float(cls_loss.detach())
                 s[2] += float(acc)
                 s[3] += 1
             total.backward()  # type: ignore[no-untyped-call]
@@ -383,7 +383,7 @@ def train_gsc(
                         }
                     )
                     sums[op] = [0.0, 0.0, 0.0, 0.0]
-                bar.set_postfix(loss=f"{float(total):.4f}")
+                bar.set_postfix(loss=f"{float(total.detach()):.4f}")
             if step % config.checkpoint_every == 0 or step == config.steps:
                 save()
                 last = time.perf_counter()
