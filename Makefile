@@ -8,7 +8,7 @@ export SDL_VIDEODRIVER ?= dummy
 export MUJOCO_GL ?= egl
 PYTEST_ARGS ?=
 
-.PHONY: help bootstrap sync system-deps demo test test-all lint typecheck fmt bench docs clean
+.PHONY: help bootstrap sync system-deps demo test test-all lint typecheck fmt bench docs datasets clean
 
 help:  ## List the targets.
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
@@ -53,6 +53,10 @@ bench: sync  ## Speed benchmarks (benchmarks/README.md explains each).
 
 docs: sync  ## Regenerate docs/envs/ pages for every registered id.
 	$(UV) run --no-sync python tools/gen_env_docs.py --all
+
+DATASETS ?=
+datasets: sync  ## Collect, build and describe the demo datasets (DATASETS="a b" for some; resumable).
+	time nice -n 10 $(UV) run --no-sync kinder demos datasets $(DATASETS) --executor inline --no-progress
 
 clean:  ## Remove caches and run outputs.
 	rm -rf .mypy_cache .ruff_cache runs out **/.pytest_cache

@@ -12,6 +12,7 @@ import typer
 
 import kinder_core
 from kinder_bench.agents import AGENTS, agent_class, describe_args
+from kinder_bench.demos_cli import demos_app
 from kinder_bench.executors import EXECUTORS
 from kinder_bench.recording import VIDEO_FORMATS
 from kinder_bench.training.cli import train_app
@@ -26,6 +27,7 @@ app = typer.Typer(
 bench_app = typer.Typer(help="Run benchmarks and report their results.", no_args_is_help=True)
 app.add_typer(bench_app, name="bench")
 app.add_typer(train_app, name="train")
+app.add_typer(demos_app, name="demos")
 
 ImportOpt = Annotated[
     list[str] | None,

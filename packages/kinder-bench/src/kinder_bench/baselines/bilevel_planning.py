@@ -114,6 +114,29 @@ class RefinedPlan:
     abstract_plan: AbstractPlan
     skills: list[tuple[str, FloatArray, int]]
     """Per executed skill: (ground operator name, parameters, number of actions)."""
+    skill_operators: list[GroundOperator] = dataclasses.field(default_factory=list)
+    """The ground operator of each entry of :attr:`skills` (same order)."""
+
+    def skill_index(self, t: int) -> int:
+        """Which entry of :attr:`skills` produced ``actions[t]``."""
+        end = 0
+        for i, (_, _, n) in enumerate(self.skills):
+            end += n
+            if t < end:
+                return i
+        raise IndexError(f"action {t} is beyond the plan's {end} actions")
+
+
+@dataclasses.dataclass(frozen=True)
+class ExecutedSkill:
+    """The skill that produced the agent's latest action (for skill-labelled demonstrations)."""
+
+    plan: int
+    """Which plan of the episode (0: the first; re-planning starts a new one)."""
+    index: int
+    """The skill's position in that plan."""
+    operator: GroundOperator
+    params: FloatArray
 
 
 @dataclasses.dataclass
@@ -202,6 +225,7 @@ class BilevelPlanner:
         states: list[ObjectCentricState] = [x0]
         actions: list[FloatArray] = []
         skills: list[tuple[str, FloatArray, int]] = []
+        used: list[GroundOperator] = []
         ops = list(plan.operators)
         if not ops:
             return (
@@ -209,8 +233,8 @@ class BilevelPlanner:
                 if self.model.env.goal_reached(x0)
                 else None
             )
-        if self._refine_from(ops, plan.states[0], x0, rng, deadline, states, actions, skills):
-            return RefinedPlan(states, actions, plan, skills)
+        if self._refine_from(ops, plan.states[0], x0, rng, deadline, states, actions, skills, used):
+            return RefinedPlan(states, actions, plan, skills, used)
         return None
 
     def _accept(self, reached: frozenset[GroundAtom], expected: frozenset[GroundAtom]) -> bool:
@@ -226,6 +250,7 @@ class BilevelPlanner:
         states: list[ObjectCentricState],
         actions: list[FloatArray],
         skills: list[tuple[str, FloatArray, int]],
+        used: list[GroundOperator],
     ) -> bool:
         """Depth-first refinement of ``ops`` from ``x`` (abstracting to ``atoms``); appends the
         segments on success."""
@@ -273,11 +298,12 @@ class BilevelPlanner:
             states.extend(rollout.states[1:])
             actions.extend(rollout.actions)
             skills.append((op.name, np.asarray(params, dtype=np.float64), len(rollout.actions)))
+            used.append(op)
             if done or self._refine_from(
-                rest, reached, x_next, rng, deadline, states, actions, skills
+                rest, reached, x_next, rng, deadline, states, actions, skills, used
             ):
                 return True
-            del states[n_states:], actions[n_actions:], skills[n_skills:]
+            del states[n_states:], actions[n_actions:], skills[n_skills:], used[n_skills:]
         return False
 
 
@@ -342,10 +368,13 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
         self._t = 0
         self.replans = 0
         self.history: list[PlanningStats] = []
+        self.last_skill: ExecutedSkill | None = None
+        """The skill that produced the latest action :meth:`act` returned."""
 
     def reset(self, obs: Any, info: dict[str, Any]) -> None:
         self.replans = 0
         self.history = []
+        self.last_skill = None
         self._plan = None
         self._failure = None
         self._replan(self.observed_state(obs), first=True)
@@ -388,6 +417,10 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
             self._replan(state)
         plan = self._plan
         action = plan.actions[self._t]
+        i = plan.skill_index(self._t)
+        self.last_skill = ExecutedSkill(
+            len(self.history) - 1, i, plan.skill_operators[i], plan.skills[i][1]
+        )
         self._t += 1
         return self.clip(action)
 
@@ -434,6 +467,7 @@ __all__: Sequence[str] = [
     "BilevelPlanner",
     "BilevelPlanningAgent",
     "BilevelPlanningArgs",
+    "ExecutedSkill",
     "PlanningStats",
     "RefinedPlan",
     "abstract_match",

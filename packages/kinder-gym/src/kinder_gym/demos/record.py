@@ -192,10 +192,14 @@ class EpisodeRecorder:
             raise TypeError(f"{env_id}: EpisodeRecorder needs a Box action space")
         self._action_space: spaces.Box = env.action_space
         self._seed: int | None = None
+        self.reset_info: dict[str, Any] = {}
+        """The info dict of the latest :meth:`reset`."""
 
     def reset(self, seed: int) -> FloatArray:
-        """Reset the env with ``seed`` and start a new record; returns the first observation."""
-        obs, _ = self.env.reset(seed=seed)
+        """Reset the env with ``seed`` and start a new record; returns the first observation
+        (the reset's info dict is kept in :attr:`reset_info`)."""
+        obs, info = self.env.reset(seed=seed)
+        self.reset_info = dict(info)
         self._seed = seed
         self._observations = [np.asarray(obs, dtype=np.float64)]
         self._states = [self._state_vector()]

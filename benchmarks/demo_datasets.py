@@ -1,0 +1,147 @@
+"""Demonstration datasets: collection throughput, write speed, sizes and `make datasets` time.
+
+Reads what ``make datasets`` (``kinder demos datasets``) left under ``datasets/<name>/data/``:
+every attempt's wall-clock seconds (``collection/attempts.jsonl``), every build call's frames and
+seconds (``collection/build.jsonl``) and the files on disk, and prints one markdown table (also
+written to ``benchmarks/results/demo_datasets.{md,json}``). Nothing is re-run, so the figures are
+those of the machine and load the datasets were made on (this project: a shared 2-core machine,
+one process, ``nice -n 10``).
+
+For a dataset that is not complete, the time ``make datasets`` still needs is projected from its
+own rates: remaining episodes × (collection seconds per kept episode + build seconds per episode).
+Envs not built yet use the mean build rate per frame of the built 3D (or 2D) datasets.
+
+    uv run python benchmarks/demo_datasets.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from kinder_bench.dataset_specs import DATASETS
+from kinder_bench.demo_collection import BUILD_LOG, kept_attempts, read_attempts
+from kinder_bench.results import load_records
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _size(path: Path) -> int:
+    return sum(p.stat().st_size for p in path.rglob("*") if p.is_file()) if path.exists() else 0
+
+
+def measure(base: Path) -> list[dict[str, Any]]:
+    rows = []
+    for spec in DATASETS.values():
+        coll = spec.collection_dir(base)
+        attempts = read_attempts(coll) if coll.exists() else []
+        kept = kept_attempts(attempts, spec.episodes)
+        complete = len(kept) >= spec.episodes
+        last = kept[-1]["index"] if kept else -1
+        considered = [a for a in attempts if a["index"] <= last] if complete else attempts
+        seconds = sum(float(a["seconds"]) for a in considered)
+        kept_steps = sum(int(a["steps"]) for a in kept)
+        builds = load_records(coll / BUILD_LOG) if (coll / BUILD_LOG).exists() else []
+        dataset = spec.dataset_dir(base)
+        info_path = dataset / "meta" / "info.json"
+        built = json.loads(info_path.read_text())["total_episodes"] if info_path.exists() else 0
+        rows.append(
+            {
+                "name": spec.name,
+                "env_id": spec.env_id,
+                "is_3d": "3D" in spec.name,
+                "wanted": spec.episodes,
+                "kept": len(kept),
+                "attempted": len(considered),
+                "collect_seconds": seconds,
+                "kept_steps": kept_steps,
+                "build_episodes": sum(int(b["episodes"]) for b in builds),
+                "build_frames": sum(int(b["frames"]) for b in builds),
+                "build_seconds": sum(float(b["seconds"]) for b in builds),
+                "built": built,
+                "dataset_bytes": _size(dataset),
+                "collection_bytes": _size(coll),
+            }
+        )
+    # Build-rate fallback (seconds per frame) for datasets not built yet.
+    for is_3d in (False, True):
+        group = [r for r in rows if r["is_3d"] == is_3d and r["build_frames"]]
+        frames = sum(r["build_frames"] for r in group)
+        rate = sum(r["build_seconds"] for r in group) / frames if frames else None
+        for r in rows:
+            if r["is_3d"] == is_3d:
+                r["fallback_s_per_frame"] = rate
+    for r in rows:
+        s_per_kept = r["collect_seconds"] / r["kept"] if r["kept"] else None
+        steps_per_ep = r["kept_steps"] / r["kept"] if r["kept"] else None
+        if r["build_frames"]:
+            s_per_frame = r["build_seconds"] / r["build_frames"]
+        else:
+            s_per_frame = r["fallback_s_per_frame"]
+        remaining_collect = r["wanted"] - r["kept"]
+        remaining_build = r["wanted"] - r["built"]
+        r["kept_per_min"] = 60 / s_per_kept if s_per_kept else None
+        r["write_frames_per_s"] = 1 / s_per_frame if s_per_frame else None
+        r["write_eps_per_min"] = (
+            60 * r["build_episodes"] / r["build_seconds"] if r["build_seconds"] else None
+        )
+        project = None
+        if s_per_kept is not None and steps_per_ep is not None and s_per_frame is not None:
+            project = remaining_collect * s_per_kept + remaining_build * steps_per_ep * s_per_frame
+        r["projected_remaining_seconds"] = project
+        r["spent_seconds"] = r["collect_seconds"] + r["build_seconds"]
+    return rows
+
+
+def _f(v: float | None, fmt: str) -> str:
+    return "—" if v is None else format(v, fmt)
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    lines = [
+        "| dataset | kept / attempted | collector SR | kept eps/min | write frames/s | write "
+        "eps/min | in dataset | dataset MB | collection MB | spent (min) | still needed (min) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        sr = r["kept"] / r["attempted"] if r["attempted"] else None
+        left = r["projected_remaining_seconds"]
+        lines.append(
+            f"| {r['name']} | {r['kept']} / {r['attempted']} | {_f(sr, '.2f')} | "
+            f"{_f(r['kept_per_min'], '.1f')} | {_f(r['write_frames_per_s'], '.0f')} | "
+            f"{_f(r['write_eps_per_min'], '.1f')} | {r['built']} / {r['wanted']} | "
+            f"{r['dataset_bytes'] / 1e6:.1f} | {r['collection_bytes'] / 1e6:.1f} | "
+            f"{r['spent_seconds'] / 60:.1f} | {_f(left / 60 if left is not None else None, '.1f')} |"
+        )
+    spent = sum(r["spent_seconds"] for r in rows)
+    left_all = [r["projected_remaining_seconds"] for r in rows]
+    known = sum(v for v in left_all if v is not None)
+    unknown = [r["name"] for r, v in zip(rows, left_all) if v is None]
+    lines += [
+        "",
+        f"`make datasets` so far: {spent / 60:.1f} min of collection and building (sum of the "
+        f"measured per-attempt and per-build wall-clock times); projected still needed: "
+        f"{known / 60:.1f} min"
+        + (f" plus the unmeasured {', '.join(unknown)}" if unknown else "")
+        + f"; total {(spent + known) / 60:.1f} min on this machine.",
+    ]
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--base", type=Path, default=ROOT / "datasets")
+    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    args = parser.parse_args()
+    rows = measure(args.base)
+    md = table(rows)
+    print(md)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "demo_datasets.md").write_text(md + "\n")
+    (args.out / "demo_datasets.json").write_text(json.dumps(rows, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
