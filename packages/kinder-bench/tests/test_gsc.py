@@ -8,6 +8,8 @@ instances give the one-skill RobotPress skeleton used to check that untouched ob
 
 from __future__ import annotations
 
+import csv
+import dataclasses
 import shutil
 from pathlib import Path
 from typing import Any
@@ -16,8 +18,6 @@ import numpy as np
 import pytest
 import torch
 from typer.testing import CliRunner
-
-pytest.importorskip("torch")
 
 from kinder_bench.agents import make_agent
 from kinder_bench.baselines.bilevel_planning import model_for
@@ -28,15 +28,15 @@ from kinder_bench.baselines.gsc.agent import (
     random_params,
 )
 from kinder_bench.baselines.gsc.data import (
-    bp_records,
     load_transitions,
     save_transitions,
     transitions_from_records,
 )
 from kinder_bench.baselines.gsc.model import GSCModel
 from kinder_bench.baselines.gsc.sampler import ChainStep, sample_chain
-from kinder_bench.baselines.gsc.train import GSCTrainConfig, train_gsc
+from kinder_bench.baselines.gsc.train import GSCTrainConfig, load_demonstrations, train_gsc
 from kinder_bench.cli import app
+from kinder_bench.demo_collection import CollectConfig, collect
 from kinder_bench.runner import RunConfig, run_benchmark
 from kinder_core import make, make_object_centric
 
@@ -63,7 +63,7 @@ def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[GSCModel, Path]:
 
 @pytest.fixture(scope="module")
 def tiny_transitions(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Transitions of 3 BP demos (with 1 perturbation each), for the cheap training tests."""
+    """Transitions of 3 BP demos (1 perturbation each), for the cheap training tests."""
     out = tmp_path_factory.mktemp("gsc_tiny")
     config = GSCTrainConfig(ENV, str(out), demo_episodes=3, perturbations=1, steps=1)
     train_gsc(config, show_progress=False)
@@ -84,18 +84,21 @@ def _two_skill_instances(n: int) -> list[int]:
     return seeds
 
 
-def test_bp_records_carry_skill_labels_and_transitions_round_trip(tmp_path: Path) -> None:
-    records = bp_records("StickButton2D-b1", [0, 2])
-    assert [r.success for r in records] == [True, True]
+def test_collected_demos_become_labelled_transitions(tmp_path: Path) -> None:
+    collect(
+        CollectConfig(ENV, "bilevel_planning", episodes=2, seed=1000),
+        tmp_path / "demos",
+        executor="inline",
+        progress=False,
+    )
+    records = load_demonstrations(tmp_path / "demos")
+    assert len(records) == 2 and all(r.success and r.skills for r in records)
     env = make_object_centric(ENV)
     trs = transitions_from_records(records, env)
     ops = [t.operator for t in trs]
     assert ops == [lab.operator for r in records for lab in r.skills]
     assert set(ops) <= {"PickStick", "StickPress", "RobotPress"}
     assert all(t.success for t in trs)
-    for r in records:
-        first = r.skills[0]
-        assert first.start == 0 and r.skills[-1].end == r.num_steps
     save_transitions(tmp_path / "t.npz", trs)
     back = load_transitions(tmp_path / "t.npz")
     assert [b.operator for b in back] == ops
@@ -104,8 +107,14 @@ def test_bp_records_carry_skill_labels_and_transitions_round_trip(tmp_path: Path
         np.testing.assert_array_equal(a.params, b.params)
         np.testing.assert_array_equal(a.start, b.start)
         np.testing.assert_array_equal(a.end, b.end)
+    # A recorded skill whose end state is not its operator's effect is labelled a failure.
+    label = records[0].skills[0]
+    cut = dataclasses.replace(records[0], skills=[dataclasses.replace(label, end=label.start)])
+    assert not transitions_from_records([cut], env)[0].success
     with pytest.raises(ValueError, match="skill labels"):
-        transitions_from_records([records[0].__class__(**{**vars(records[0]), "skills": []})], env)
+        transitions_from_records([dataclasses.replace(records[0], skills=[])], env)
+    with pytest.raises(FileNotFoundError, match="neither"):
+        load_demonstrations(tmp_path)
 
 
 def test_sampler_respects_the_inpainted_initial_state(trained: tuple[GSCModel, Path]) -> None:
@@ -236,8 +245,6 @@ def test_checkpoint_round_trip_and_resume(tiny_transitions: Path, tmp_path: Path
 
 
 def _rows(path: Path) -> list[dict[str, Any]]:
-    import csv
-
     with path.open() as f:
         return list(csv.DictReader(f))
 

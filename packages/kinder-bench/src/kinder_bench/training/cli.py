@@ -16,10 +16,10 @@ def train_gsc_command(
     env: str = typer.Option(..., "--env", "-e", help="The env id, e.g. StickButton2D-b1."),
     out: str = typer.Option(..., "--out", "-o", help="Checkpoint directory (resumed if present)."),
     dataset: str | None = typer.Option(
-        None, "--dataset", help="LeRobot dataset of skill-labelled demos; default: BP demos."
+        None, "--dataset", help="LeRobot dataset or demo collection; default: collect BP demos."
     ),
     demo_episodes: int = typer.Option(50, help="BP demos to generate without --dataset."),
-    demo_seed: int = typer.Option(0, help="First reset seed of the generated demos."),
+    demo_seed: int = typer.Option(1000, help="Collection seed of the BP demos (not 0-4: eval)."),
     perturbations: int = typer.Option(4, help="Perturbed executions per demo skill."),
     steps: int = typer.Option(5000, help="Optimisation steps (every skill per step)."),
     batch_size: int = typer.Option(128),

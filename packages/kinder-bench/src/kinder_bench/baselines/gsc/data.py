@@ -1,12 +1,10 @@
 """GSC's training data: skill transitions ``(s, a, s′)`` with a success label.
 
-Two sources, one type (:class:`~kinder_gym.demos.record.EpisodeRecord` with skill labels):
-
-* any skill-labelled demonstrations (e.g. ``kinder_gym.demos.lerobot_format.load_records``);
-* :func:`bp_records`, a small generator that plans each seeded instance with the bilevel planner
-  and replays the refined plan through the live env under an
-  :class:`~kinder_gym.demos.record.EpisodeRecorder`, labelling each plan step (a ground skill and
-  its parameters) with a :class:`~kinder_gym.demos.record.SkillLabel`.
+The source is any skill-labelled :class:`~kinder_gym.demos.record.EpisodeRecord` s: a LeRobot
+dataset (``kinder_gym.demos.lerobot_format.load_records``), a demo collection
+(:mod:`kinder_bench.demo_collection`, whose bilevel-planner episodes label each plan step, a
+ground skill and its parameters, with a :class:`~kinder_gym.demos.record.SkillLabel`), or records
+built in memory.
 
 :func:`transitions_from_records` turns every skill label into a :class:`SkillTransition` (the
 state vectors at the skill's first and one-past-last step, and its parameters). Its label is the
@@ -34,15 +32,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from kinder_bench.baselines.bilevel_planning import (
-    BilevelPlanningArgs,
-    abstract_match,
-    model_for,
-    plan_episode,
-)
-from kinder_bench.envs import resolve_env_id
-from kinder_core import ObjectCentricEnv, make
-from kinder_gym.demos.record import EpisodeRecord, EpisodeRecorder
+from kinder_bench.baselines.bilevel_planning import abstract_match, model_for
+from kinder_core import ObjectCentricEnv
+from kinder_gym.demos.record import EpisodeRecord
 from kinder_gym.model import PlanningModel
 from kinder_gym.skills import GroundSkill, SkillFailure, execute_skill
 
@@ -197,47 +189,6 @@ def perturbed_transitions(
     return out
 
 
-def bp_records(
-    env_id: str,
-    seeds: Iterable[int],
-    args: BilevelPlanningArgs | None = None,
-    progress: Callable[[int], None] | None = None,
-) -> list[EpisodeRecord]:
-    """Skill-labelled demonstrations: the bilevel planner's refined plan for each seeded instance,
-    replayed through the live env (instances where no plan is found are skipped).
-
-    Each plan step becomes a :class:`~kinder_gym.demos.record.SkillLabel` with the lifted
-    operator's name, the object names and the parameters, covering the steps its skill produced.
-    """
-    env_id = resolve_env_id(env_id)
-    env = make(env_id)
-    oc = env.unwrapped
-    if not isinstance(oc, ObjectCentricEnv):
-        raise TypeError(f"{env_id} is not a KinDER env")
-    records = []
-    for seed in seeds:
-        recorder = EpisodeRecorder(env, env_id, "bilevel_planning")
-        recorder.reset(seed)
-        x0 = oc.get_state()
-        plan, _ = plan_episode(oc, x0, args, seed=seed)
-        if plan is not None:
-            ops = {o.name: o for o in plan.abstract_plan.operators}
-            t = 0
-            for name, params, n in plan.skills:
-                op = ops[name]
-                recorder.begin_skill(op.parent.name, [o.name for o in op.objects], params)
-                for action in plan.actions[t : t + n]:
-                    if recorder.done:
-                        break
-                    recorder.step(action)
-                t += n
-            records.append(recorder.finish(task=str(oc.metadata.get("description", ""))))
-        if progress is not None:
-            progress(1)
-    env.close()
-    return records
-
-
 def save_transitions(path: Path | str, transitions: Sequence[SkillTransition]) -> None:
     """Write transitions to an ``.npz`` file atomically (tmp file + ``os.replace``)."""
     if not transitions:
@@ -281,7 +232,6 @@ def load_transitions(path: Path | str) -> list[SkillTransition]:
 
 __all__ = [
     "SkillTransition",
-    "bp_records",
     "ground_skill",
     "lifted_name",
     "load_transitions",

@@ -2,10 +2,14 @@
 
 Stages, each resumable, all files under the output directory:
 
-1. ``demo_transitions.npz``: the skill transitions of the demonstrations, from skill-labelled
-   records (a LeRobot dataset written by ``kinder_gym.demos.lerobot_format``, or records given
-   directly) or, without a dataset, from :func:`~kinder_bench.baselines.gsc.data.bp_records` on
-   seeds ``demo_seed, …, demo_seed + demo_episodes − 1``. Written once; reused on resume.
+1. ``demo_transitions.npz``: the skill transitions of the demonstrations: skill-labelled records
+   from ``dataset`` (a LeRobot dataset written by ``kinder_gym.demos.lerobot_format``, or a demo
+   collection directory of :mod:`kinder_bench.demo_collection`), records given directly, or,
+   without either, ``demo_episodes`` successful bilevel-planner episodes collected into
+   ``demos/`` (:func:`kinder_bench.demo_collection.collect`, collection seed ``demo_seed``,
+   resumable). The default ``demo_seed`` (1000) keeps the training instances apart from the
+   evaluation's: the runner's seed ``s`` and a collection with seed ``s`` draw the same
+   instances. Written once; reused on resume.
 2. ``transitions.npz``: those plus ``perturbations`` executions of perturbed parameters per
    successful demo transition, labelled by outcome (the classifier's negatives; the successes
    also train the ε-models). Written once; reused on resume.
@@ -37,7 +41,6 @@ from numpy.typing import NDArray
 
 from kinder_bench.baselines.gsc.data import (
     SkillTransition,
-    bp_records,
     load_transitions,
     perturbed_transitions,
     save_transitions,
@@ -52,11 +55,14 @@ from kinder_bench.baselines.gsc.model import (
     atomic_torch_save,
     state_scaler,
 )
+from kinder_bench.demo_collection import CONFIG_FILE as COLLECT_CONFIG
+from kinder_bench.demo_collection import CollectConfig, collect, kept_files
 from kinder_bench.envs import resolve_env_id
 from kinder_bench.results import write_json
 from kinder_bench.training.csvlog import CsvLog
 from kinder_core import ObjectCentricEnv, make_object_centric
 from kinder_gym.demos.record import EpisodeRecord
+from kinder_gym.demos.store import load_record
 
 FloatArray = NDArray[np.float64]
 
@@ -75,9 +81,9 @@ class GSCTrainConfig:
     dataset: str | None = None
     """A LeRobot dataset directory of skill-labelled demos; None: generate BP demos."""
     demo_episodes: int = 50
-    """BP demonstrations to generate when no dataset is given."""
-    demo_seed: int = 0
-    """First reset seed of the generated demonstrations."""
+    """Successful BP demonstrations to collect when no dataset is given."""
+    demo_seed: int = 1000
+    """Collection seed of those demonstrations (keep it apart from the evaluation seeds)."""
     perturbations: int = 4
     """Perturbed executions per successful demo transition (classifier negatives)."""
     perturb_noise: float = 0.1
@@ -149,11 +155,20 @@ def prepare_transitions(
     else:
         if records is None:
             if config.dataset is not None:
-                records = _load_dataset(config.dataset)
+                records = load_demonstrations(config.dataset)
             else:
-                seeds = range(config.demo_seed, config.demo_seed + config.demo_episodes)
-                with tqdm.tqdm(total=len(seeds), desc="BP demos", disable=not show_progress) as bar:
-                    records = bp_records(config.env_id, seeds, progress=bar.update)
+                collect(
+                    CollectConfig(
+                        config.env_id,
+                        "bilevel_planning",
+                        episodes=config.demo_episodes,
+                        seed=config.demo_seed,
+                    ),
+                    out / "demos",
+                    executor="inline",
+                    progress=show_progress,
+                )
+                records = load_demonstrations(out / "demos")
         demos = transitions_from_records(records, env)
         save_transitions(demo_file, demos)
     rng = np.random.default_rng([config.seed, 1])
@@ -172,17 +187,25 @@ def prepare_transitions(
     return transitions
 
 
-def _load_dataset(root: str) -> list[EpisodeRecord]:
-    os.environ.setdefault("HF_HUB_OFFLINE", "1")  # never reach the hub for a local dataset
-    try:
-        from kinder_gym.demos import lerobot_format  # type: ignore[attr-defined,unused-ignore]
-    except ImportError as e:
-        raise ImportError(
-            f"Reading the dataset {root} needs kinder_gym.demos.lerobot_format and lerobot "
-            f"(`uv sync --all-extras`): {e}"
-        ) from e
-    records: list[EpisodeRecord] = lerobot_format.load_records(root)
-    return records
+def load_demonstrations(root: Path | str) -> list[EpisodeRecord]:
+    """The records of a demo collection directory (``collect.json``; its kept episodes) or of a
+    LeRobot dataset (``meta/info.json``)."""
+    root = Path(root)
+    if (root / COLLECT_CONFIG).is_file():
+        return [load_record(p) for p in kept_files(root)]
+    if (root / "meta" / "info.json").is_file():
+        os.environ.setdefault("HF_HUB_OFFLINE", "1")  # a local dataset never needs the hub
+        try:
+            from kinder_gym.demos import lerobot_format
+        except ImportError as e:
+            raise ImportError(
+                f"Reading the LeRobot dataset {root} needs lerobot (`uv sync --all-extras`): {e}"
+            ) from e
+        return lerobot_format.load_records(root)
+    raise FileNotFoundError(
+        f"{root} is neither a demo collection (no {COLLECT_CONFIG}) nor a LeRobot dataset (no "
+        "meta/info.json)"
+    )
 
 
 def build_model(
@@ -399,6 +422,7 @@ __all__ = [
     "TRAIN_STATE_FILE",
     "GSCTrainConfig",
     "build_model",
+    "load_demonstrations",
     "prepare_transitions",
     "train_gsc",
 ]
