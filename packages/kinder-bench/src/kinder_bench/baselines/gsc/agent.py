@@ -223,8 +223,9 @@ class GSCAgent(Agent[GSCArgs]):
         )
         if skeleton is None:
             self._failure = (
-                f"gsc: no abstract plan among the first {self.args.max_abstract_plans} uses only "
-                f"operators with a trained model ({sorted(self.gsc.skills)})"
+                f"gsc: no abstract plan found, or none of the first "
+                f"{self.args.max_abstract_plans} uses only operators with a trained model "
+                f"({sorted(self.gsc.skills)})"
             )
             raise AgentFailure(self._failure)
         if not skeleton:
