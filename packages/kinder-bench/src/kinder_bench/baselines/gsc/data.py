@@ -26,14 +26,14 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from kinder_bench.baselines.bilevel_planning import abstract_match, model_for
-from kinder_core import ObjectCentricEnv
+from kinder_core import Object, ObjectCentricEnv
 from kinder_gym.demos.record import EpisodeRecord
 from kinder_gym.model import PlanningModel
 from kinder_gym.skills import GroundSkill, SkillFailure, execute_skill
@@ -64,20 +64,20 @@ def lifted_name(operator: str) -> str:
 
 
 def ground_skill(
-    model: PlanningModel, state_objects: Iterable[object], op: str, objects: Sequence[str]
+    model: PlanningModel, state_objects: Sequence[Object], op: str, objects: Sequence[str]
 ) -> GroundSkill:
     """The ground skill ``op(objects)`` of ``model`` over the objects of a state."""
-    by_name = {getattr(o, "name", None): o for o in state_objects}
+    by_name = {o.name: o for o in state_objects}
     missing = [n for n in objects if n not in by_name]
     if missing:
         raise ValueError(
             f"{model.name}: skill {op}{tuple(objects)} names objects {missing} that the state "
-            f"does not have (its objects: {sorted(str(k) for k in by_name)})"
+            f"does not have (its objects: {sorted(by_name)})"
         )
     skills = {s.name: s for s in model.skills}
     if op not in skills:
         raise ValueError(f"{model.name}: no skill for operator {op!r}; known: {sorted(skills)}")
-    return skills[op].ground([by_name[n] for n in objects])  # type: ignore[misc]
+    return skills[op].ground([by_name[n] for n in objects])
 
 
 def skill_outcome(

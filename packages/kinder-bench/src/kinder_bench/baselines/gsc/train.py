@@ -39,6 +39,7 @@ import torch
 import tqdm
 from numpy.typing import NDArray
 
+from kinder_bench.baselines.bilevel_planning import model_for
 from kinder_bench.baselines.gsc.data import (
     SkillTransition,
     load_transitions,
@@ -212,8 +213,6 @@ def build_model(
     config: GSCTrainConfig, env: ObjectCentricEnv, transitions: Sequence[SkillTransition]
 ) -> GSCModel:
     """An untrained model whose layout, scaling and static mask come from ``transitions``."""
-    from kinder_bench.baselines.bilevel_planning import model_for
-
     layout = Layout.of_env(env)
     states = np.concatenate(
         [np.stack([t.start for t in transitions]), np.stack([t.end for t in transitions])]
