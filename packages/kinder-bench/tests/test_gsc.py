@@ -117,6 +117,21 @@ def test_collected_demos_become_labelled_transitions(tmp_path: Path) -> None:
         load_demonstrations(tmp_path)
 
 
+def test_skill_labelled_lerobot_dataset_is_a_source(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The demos fixture (a LeRobot v3 dataset of BP episodes on Obstruction2D-o1)."""
+    monkeypatch.setenv("HF_HOME", str(tmp_path / "hf"))
+    monkeypatch.setenv("HF_DATASETS_CACHE", str(tmp_path / "hf" / "datasets"))
+    root = Path(__file__).parents[2] / "kinder-gym/tests/data/demos/Obstruction2D-o1"
+    records = load_demonstrations(root)
+    env = make_object_centric(records[0].env_id)
+    trs = transitions_from_records(records, env)
+    assert len(trs) == sum(len(r.skills) for r in records) > 0
+    assert all(t.success for t in trs)  # BP's skills reached their operators' effects
+    assert {t.operator for t in trs} <= {s.name for s in model_for(env).skills}
+
+
 def test_sampler_respects_the_inpainted_initial_state(trained: tuple[GSCModel, Path]) -> None:
     model, _ = trained
     env = make_object_centric(ENV)
