@@ -12,6 +12,13 @@ own rates: remaining episodes × (collection seconds per kept episode + build se
 Envs not built yet use the mean build rate per frame of the built 3D (or 2D) datasets.
 
     uv run python benchmarks/demo_datasets.py
+    uv run python benchmarks/demo_datasets.py --write-bench Motion2D-p0 --episodes 20
+
+``--write-bench NAME`` also times :class:`~kinder_gym.demos.lerobot_format.DemoWriter` alone on
+the first ``--episodes`` kept episodes of a collected dataset, into a temporary directory, with
+and without images (frames/s; the first call includes lerobot's import, so a warm-up episode is
+written first and not counted). Wall-clock and this process's CPU time are both reported: on a
+loaded machine the CPU figure is the one that carries over.
 """
 
 from __future__ import annotations
@@ -108,12 +115,13 @@ def table(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         sr = r["kept"] / r["attempted"] if r["attempted"] else None
         left = r["projected_remaining_seconds"]
+        left_min = left / 60 if left is not None else None
         lines.append(
             f"| {r['name']} | {r['kept']} / {r['attempted']} | {_f(sr, '.2f')} | "
             f"{_f(r['kept_per_min'], '.1f')} | {_f(r['write_frames_per_s'], '.0f')} | "
             f"{_f(r['write_eps_per_min'], '.1f')} | {r['built']} / {r['wanted']} | "
             f"{r['dataset_bytes'] / 1e6:.1f} | {r['collection_bytes'] / 1e6:.1f} | "
-            f"{r['spent_seconds'] / 60:.1f} | {_f(left / 60 if left is not None else None, '.1f')} |"
+            f"{r['spent_seconds'] / 60:.1f} | {_f(left_min, '.1f')} |"
         )
     spent = sum(r["spent_seconds"] for r in rows)
     left_all = [r["projected_remaining_seconds"] for r in rows]
@@ -130,11 +138,56 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def write_bench(base: Path, name: str, episodes: int) -> str:
+    """Frames/s of DemoWriter alone, with and without images (see the module docstring)."""
+    import tempfile
+    import time
+
+    from kinder_bench.demo_collection import kept_files
+    from kinder_gym.demos.lerobot_format import DemoWriter
+    from kinder_gym.demos.store import load_record
+
+    spec = DATASETS[name]
+    records = [load_record(p) for p in kept_files(spec.collection_dir(base))[: episodes + 1]]
+    lines = [
+        f"DemoWriter on {episodes} episodes of {name} "
+        f"({sum(r.num_steps for r in records[1:])} frames):",
+        "",
+        "| images | wall s | CPU s | frames/s (wall) | frames/s (CPU) |",
+        "|---|---|---|---|---|",
+    ]
+    for images in (False, True):
+        with (
+            tempfile.TemporaryDirectory() as tmp,
+            DemoWriter(Path(tmp) / "ds", spec.env_id, images=images) as writer,
+        ):
+            writer.add(records[0])  # warm-up: imports, encoder start
+            start, cpu = time.perf_counter(), time.process_time()
+            for r in records[1:]:
+                writer.add(r)
+            seconds = time.perf_counter() - start
+            cpu_seconds = time.process_time() - cpu
+        frames = sum(r.num_steps for r in records[1:])
+        lines.append(
+            f"| {images} | {seconds:.1f} | {cpu_seconds:.1f} | {frames / seconds:.0f} | "
+            f"{frames / cpu_seconds:.0f} |"
+        )
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--base", type=Path, default=ROOT / "datasets")
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    parser.add_argument("--write-bench", metavar="NAME", default=None)
+    parser.add_argument("--episodes", type=int, default=20)
     args = parser.parse_args()
+    if args.write_bench:
+        md = write_bench(args.base, args.write_bench, args.episodes)
+        print(md)
+        args.out.mkdir(parents=True, exist_ok=True)
+        (args.out / "demo_write_speed.md").write_text(md + "\n")
+        return
     rows = measure(args.base)
     md = table(rows)
     print(md)

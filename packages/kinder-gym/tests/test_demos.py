@@ -324,6 +324,8 @@ def test_upstream_hdf5_round_trip_and_completion(tmp_path: Path) -> None:
         assert b.seed == -1 and b.terminated
         np.testing.assert_allclose(b.observations, a.observations, atol=1e-9)
         np.testing.assert_array_equal(b.rewards, a.rewards)
+    unknown = replay_record(env, bare[0], name="demo_0")
+    assert not unknown.ok and "seed is unknown" in unknown.message
 
 
 # -- corrupt and truncated files ----------------------------------------------------------------

@@ -287,6 +287,11 @@ class DemoWriter:
     def _states_of(self, record: EpisodeRecord) -> NDArray[np.float64]:
         if record.states is not None:
             return record.states
+        if record.seed < 0:
+            raise ValueError(
+                f"Record of {record.env_id} has neither states nor a known seed (seed "
+                f"{record.seed}), so its states cannot be recovered by replay; give it states"
+            )
         from kinder_gym.demos.replay import replay_states
 
         return replay_states(self.env, record)

@@ -79,6 +79,10 @@ def replay_record(
     """Replay ``record`` from its seed and compare states (``record.states``, or the
     observations when states were not stored), rewards and termination."""
     name = name or f"{record.env_id} seed {record.seed}"
+    if record.seed < 0:
+        return ReplayResult(
+            name, False, float("inf"), 0, f"{name}: the reset seed is unknown (imported episode)"
+        )
     try:
         states, rewards, terminated = replay_rollout(env, record)
     except Exception as e:  # a record whose actions an env rejects does not replay
