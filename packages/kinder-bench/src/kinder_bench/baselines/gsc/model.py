@@ -215,8 +215,8 @@ class SkillSpec:
 class NetConfig:
     """Network sizes (saved with the model)."""
 
-    hidden: int = 256
-    depth: int = 4
+    hidden: int = 128
+    depth: int = 3
     classifier_hidden: int = 256
     classifier_depth: int = 3
 

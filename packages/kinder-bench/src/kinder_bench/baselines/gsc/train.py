@@ -91,12 +91,14 @@ class GSCTrainConfig:
     """Std of the Gaussian parameter perturbation, as a fraction of each parameter's range."""
     perturb_uniform: float = 0.5
     """Fraction of perturbations drawn uniformly from the parameter space instead."""
-    steps: int = 5000
+    steps: int = 2000
     """Optimisation steps (each trains every skill's two networks on one minibatch)."""
     batch_size: int = 128
     lr: float = 1e-3
-    hidden: int = 256
-    depth: int = 4
+    hidden: int = 128
+    """Width of the ε-network (the measured cells of ``benchmarks/results/gsc.md``)."""
+    depth: int = 3
+    """Residual blocks of the ε-network."""
     classifier_hidden: int = 256
     classifier_depth: int = 3
     checkpoint_every: int = 500
