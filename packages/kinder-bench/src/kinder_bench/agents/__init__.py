@@ -40,6 +40,7 @@ AGENTS: dict[str, str] = {
     "dp": "kinder_bench.baselines.diffusion:DiffusionAgent",
     "dpes": "kinder_bench.baselines.diffusion:DPESAgent",
     "mbrl": "kinder_bench.baselines.mbrl:MBRLAgent",
+    "gsc": "kinder_bench.baselines.gsc.agent:GSCAgent",
 }
 
 

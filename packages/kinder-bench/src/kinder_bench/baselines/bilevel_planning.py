@@ -239,15 +239,7 @@ class BilevelPlanner:
         return None
 
     def _accept(self, reached: frozenset[GroundAtom], expected: frozenset[GroundAtom]) -> bool:
-        """Exact match, or extra atoms of the model's monotone predicates only."""
-        if reached == expected:
-            return True
-        monotone = self.model.monotone_predicates
-        return (
-            bool(monotone)
-            and expected <= reached
-            and all(a.predicate.name in monotone for a in reached - expected)
-        )
+        return abstract_match(self.model, reached, expected)
 
     def _refine_from(
         self,
@@ -314,6 +306,21 @@ class BilevelPlanner:
                 return True
             del states[n_states:], actions[n_actions:], skills[n_skills:], used[n_skills:]
         return False
+
+
+def abstract_match(
+    model: PlanningModel, reached: frozenset[GroundAtom], expected: frozenset[GroundAtom]
+) -> bool:
+    """Whether a skill that was predicted to reach ``expected`` succeeded by reaching ``reached``:
+    an exact match, or extra atoms of the model's monotone predicates only."""
+    if reached == expected:
+        return True
+    monotone = model.monotone_predicates
+    return (
+        bool(monotone)
+        and expected <= reached
+        and all(a.predicate.name in monotone for a in reached - expected)
+    )
 
 
 def _drop_noops(
@@ -478,6 +485,7 @@ __all__: Sequence[str] = [
     "ExecutedSkill",
     "PlanningStats",
     "RefinedPlan",
+    "abstract_match",
     "model_for",
     "plan_episode",
     "plan_reaches_goal",
