@@ -32,6 +32,8 @@ AGENTS: dict[str, str] = {
     "random": "kinder_bench.agents.random_agent:RandomAgent",
     "mpc": "kinder_bench.agents.mpc:MPCAgent",
     "bilevel_planning": "kinder_bench.baselines.bilevel_planning:BilevelPlanningAgent",
+    "ppo": "kinder_bench.baselines.rl.agents:PPOAgent",
+    "sac": "kinder_bench.baselines.rl.agents:SACAgent",
 }
 
 
