@@ -308,7 +308,8 @@ def _check_or_write_config(out: Path, config: dict[str, Any]) -> None:
     write_json(path, {**config, **environment_info()})
 
 
-def _make_venv(algo: str, args: RLArgs, res: Resolved) -> VecEnv:
+def make_venv(algo: str, args: RLArgs, res: Resolved) -> VecEnv:
+    """The training vector env (``res.n_envs`` copies of :func:`make_rl_env`), unnormalised."""
     fn: Callable[[], Any] = functools.partial(
         make_rl_env, res.env_id, res.max_episode_steps, args.reward, args.dense_scale
     )
@@ -563,7 +564,7 @@ def train(algo: Algo | str, args: RLArgs, out: Path | str, progress: bool = True
         steps = int(read_meta(ckpt)["steps"])
         return TrainResult(out, ckpt, steps, steps, 0, 0.0)
 
-    venv = _make_venv(algo, args, res)
+    venv = make_venv(algo, args, res)
     resumed: int | None = None
     try:
         if ckpt is None:

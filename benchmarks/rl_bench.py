@@ -1,0 +1,212 @@
+"""Train and evaluate PPO and SAC on the paper's benchmark envs, one (algorithm, env, seed) cell at
+a time, resumably; then write the results table through ``kinder bench report``.
+
+Every cell trains ``kinder train <algo> --env ENV --seed S --steps STEPS`` into
+``OUT/train/<algo>/<env>/<reward>/<steps>/seed<S>`` (resuming from its newest checkpoint when
+interrupted, skipped when finished), then evaluates that policy with the runner on the episodes
+of run seed ``S`` (``--episodes`` of them, the paper's step budget) into ``OUT/eval``: one run per
+(algorithm, env, reward, budget), whose checkpoint argument ends in ``seed{seed}``, so the
+report aggregates the seeds of a method (mean ± std across seeds). Finished episodes are skipped
+on a rerun, so the same command continues where it stopped. ``OUT/cells.json`` records each
+cell's status, budget and training throughput; ``--summary`` writes them with the table as
+markdown.
+
+    # the issue's core cells (5 seeds × 1M steps × 50 episodes, both algorithms)
+    nice -n 10 uv run python benchmarks/rl_bench.py --algo ppo --algo sac \\
+        --env Motion2D-p0 --env StickButton2D-b1 --env BaseMotion3D --seeds 0-4
+    # every cell of the paper's eight envs
+    nice -n 10 uv run python benchmarks/rl_bench.py --algo ppo --algo sac --suite paper
+    # the appendix's sparse-vs-dense comparison on BaseMotion3D
+    nice -n 10 uv run python benchmarks/rl_bench.py --dense-comparison --out runs/rl-dense
+
+Cells run one after another in this process (training is bound by the learner, see
+``rl_throughput.py``); ``--stop-after-minutes`` stops starting new cells after a time budget.
+Changing ``--steps`` starts new cells (the budget is part of the directory and of the run id).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from kinder_bench.baselines.rl.checkpoints import list_checkpoints
+from kinder_bench.baselines.rl.train import make_train_args, train
+from kinder_bench.envs import resolve_env_id, short_id
+from kinder_bench.protocol import PAPER_ENVS
+from kinder_bench.report import write_report
+from kinder_bench.results import write_json
+from kinder_bench.runner import RunConfig, run_benchmark
+
+CELLS_FILE = "cells.json"
+
+
+def parse_seeds(text: str) -> list[int]:
+    """``0-4`` or ``0,2,7``."""
+    if "-" in text:
+        lo, hi = text.split("-")
+        return list(range(int(lo), int(hi) + 1))
+    return [int(s) for s in text.split(",")]
+
+
+def budget_name(steps: int) -> str:
+    """``1000000`` → ``1000k``; ``2048`` → ``2048``."""
+    return f"{steps // 1000}k" if steps % 1000 == 0 else str(steps)
+
+
+def label(algo: str, reward: str) -> str:
+    """The method's name in the table."""
+    return algo if reward == "sparse" else f"{algo}-{reward}"
+
+
+def train_root(out: Path, algo: str, env_id: str, reward: str, steps: int) -> Path:
+    """The directory holding a method's ``seed<S>`` training directories."""
+    return out / "train" / algo / short_id(env_id) / reward / budget_name(steps)
+
+
+def load_cells(out: Path) -> dict[str, dict[str, Any]]:
+    path = out / CELLS_FILE
+    cells: dict[str, dict[str, Any]] = json.loads(path.read_text()) if path.exists() else {}
+    return cells
+
+
+def run_cell(
+    out: Path,
+    algo: str,
+    env_id: str,
+    reward: str,
+    seed: int,
+    a: argparse.Namespace,
+    cells: dict[str, dict[str, Any]],
+) -> None:
+    key = f"{algo}/{short_id(env_id)}/{reward}/{budget_name(a.steps)}/seed{seed}"
+    root = train_root(out, algo, env_id, reward, a.steps)
+    values: dict[str, Any] = {
+        "env_id": env_id,
+        "seed": seed,
+        "total_steps": a.steps,
+        "reward": reward,
+        "vec_env": a.vec,
+        "checkpoint_every": a.checkpoint_every,
+    }
+    cell = cells.setdefault(key, {"algo": algo, "env_id": env_id, "reward": reward, "seed": seed})
+    cell.update(budget_steps=a.steps, status="training")
+    write_json(out / CELLS_FILE, cells)
+    result = train(algo, make_train_args(algo, values), root / f"seed{seed}", progress=a.progress)
+    if result.ran_steps:
+        cell["train_wall_s"] = round(cell.get("train_wall_s", 0.0) + result.wall_s, 1)
+        cell["last_chunk_steps_per_s"] = round(result.ran_steps / result.wall_s, 1)
+    cell.update(trained_steps=result.steps, status="evaluating")
+    write_json(out / CELLS_FILE, cells)
+    run = RunConfig(
+        env_id,
+        algo,
+        {"checkpoint": str(root / "seed{seed}")},
+        seeds=(seed,),
+        episodes=a.episodes,
+        label=label(algo, reward),
+    )
+    outcome = run_benchmark([run], out / "eval", executor="inline", progress=a.progress)
+    recs = [r for r in outcome.records if r["seed"] == seed]
+    cell.update(
+        status="done",
+        episodes=len(recs),
+        success_rate=round(sum(r["success"] for r in recs) / max(len(recs), 1), 4),
+        finished_at=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+    )
+    write_json(out / CELLS_FILE, cells)
+    print(f"{key}: {cell}", file=sys.stderr, flush=True)
+
+
+def summary_markdown(out: Path, table: str, command: str) -> str:
+    cells = load_cells(out)
+    lines = [
+        "| cell (algo/env/reward/budget/seed) | status | trained steps | train s | "
+        "steps/s (last chunk) | eval episodes | SR |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for key in sorted(cells):
+        c = cells[key]
+        steps = c.get("trained_steps")
+        if steps is None:  # interrupted while training: the newest checkpoint
+            found = list_checkpoints(
+                train_root(out, c["algo"], c["env_id"], c["reward"], c["budget_steps"])
+                / f"seed{c['seed']}"
+            )
+            steps = f"{found[-1][0]} (checkpoint)" if found else 0
+        lines.append(
+            f"| {key} | {c['status']} | {steps} | {c.get('train_wall_s', '')} | "
+            f"{c.get('last_chunk_steps_per_s', '')} | {c.get('episodes', '')} | "
+            f"{c.get('success_rate', '')} |"
+        )
+    return (
+        f"Generated by `{command}`.\n\n## Results table (`kinder bench report {out / 'eval'}`)\n\n"
+        + table
+        + "\n\n## Cells\n\n"
+        + "\n".join(lines)
+        + "\n"
+    )
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--algo", action="append", choices=["ppo", "sac"])
+    p.add_argument("--env", action="append", help="env id (repeatable)")
+    p.add_argument("--suite", choices=["paper"], help="the paper's eight envs")
+    p.add_argument("--reward", action="append", choices=["sparse", "dense"])
+    p.add_argument(
+        "--dense-comparison",
+        action="store_true",
+        help="BaseMotion3D, PPO and SAC, sparse and dense (the appendix's table)",
+    )
+    p.add_argument("--seeds", default="0-4")
+    p.add_argument("--steps", type=int, default=1_000_000, help="training env steps per cell")
+    p.add_argument("--episodes", type=int, default=50, help="evaluation episodes per seed")
+    p.add_argument("--vec", default="dummy", choices=["dummy", "subproc"])
+    p.add_argument("--checkpoint-every", type=int, default=50_000)
+    p.add_argument("--out", type=Path, default=Path("runs/rl"))
+    p.add_argument("--stop-after-minutes", type=float, default=None)
+    p.add_argument("--summary", type=Path, help="write the table and the cells as markdown")
+    p.add_argument("--no-progress", dest="progress", action="store_false")
+    a = p.parse_args()
+    algos = a.algo or ["ppo", "sac"]
+    envs = list(a.env or [])
+    rewards = a.reward or ["sparse"]
+    if a.suite == "paper":
+        envs += list(PAPER_ENVS)
+    if a.dense_comparison:
+        envs, rewards = ["BaseMotion3D"], ["sparse", "dense"]
+    if not envs:
+        p.error("give --env, --suite paper or --dense-comparison")
+    envs = [resolve_env_id(e) for e in envs]
+    a.out.mkdir(parents=True, exist_ok=True)
+    cells = load_cells(a.out)
+    t0 = time.monotonic()
+    stopped = False
+    for env_id in envs:
+        for algo in algos:
+            for reward in rewards:
+                for seed in parse_seeds(a.seeds):
+                    elapsed = (time.monotonic() - t0) / 60
+                    if a.stop_after_minutes is not None and elapsed > a.stop_after_minutes:
+                        stopped = True
+                        break
+                    run_cell(a.out, algo, env_id, reward, seed, a, cells)
+    if stopped:
+        print(f"stopped after {a.stop_after_minutes} minutes; rerun to continue", file=sys.stderr)
+    if not (a.out / "eval" / "results.jsonl").exists():
+        return
+    table, _ = write_report([a.out / "eval"])
+    print(table)
+    if a.summary:
+        command = "python benchmarks/rl_bench.py " + " ".join(sys.argv[1:])
+        a.summary.write_text(summary_markdown(a.out, table, command))
+        print(f"wrote {a.summary}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
