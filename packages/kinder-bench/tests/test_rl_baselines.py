@@ -226,3 +226,23 @@ def test_dense_reward_rewards_progress_towards_the_target() -> None:
     sparse = make_rl_env("kinder/BaseMotion3D-v0", 100)
     sparse.reset(seed=0)
     assert sparse.step(toward)[1] == -1.0
+
+
+def test_kinder_train_command(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from kinder_bench.cli import app
+
+    cmd = ["train", "ppo", "--env", "Motion2D-p0", "--steps", "256", "--out", str(tmp_path)]
+    tiny = ["--n-envs", "1", "--no-progress", "--hp", "n_steps=256", "--hp", "batch_size=256"]
+    tiny += ["--hp", "n_epochs=1", "--hp", "hidden_size=8"]
+    result = CliRunner().invoke(app, cmd + tiny)
+    assert result.exit_code == 0, result.output
+    assert "--agent ppo --arg checkpoint=" in result.output
+    assert [s for s, _ in list_checkpoints(tmp_path)] == [256]
+    again = CliRunner().invoke(app, cmd + tiny)
+    assert again.exit_code == 0 and "already trained (256 steps)" in again.output
+    bad = CliRunner().invoke(app, [*cmd, "--hp", "hidden_size"])
+    assert bad.exit_code == 2 and "expected KEY=VALUE" in bad.output
+    bad = CliRunner().invoke(app, [*cmd, "--hp", "nope=1"])
+    assert bad.exit_code == 2 and "Unknown ppo argument" in bad.output

@@ -99,7 +99,7 @@ def train_ppo(
     hp: HpOpt = None,
     progress: ProgressOpt = True,
 ) -> None:
-    """PPO with the paper's settings (Stable-Baselines3; needs `pip install 'kinder-bench[rl]'`)."""
+    """PPO with the paper's settings (Stable-Baselines3, the rl extra)."""
     _train_rl("ppo", env, seed, steps, out, n_envs, vec_env, reward, checkpoint_every, hp, progress)
 
 
@@ -116,5 +116,5 @@ def train_sac(
     hp: HpOpt = None,
     progress: ProgressOpt = True,
 ) -> None:
-    """SAC with the paper's settings (Stable-Baselines3; needs `pip install 'kinder-bench[rl]'`)."""
+    """SAC with the paper's settings (Stable-Baselines3, the rl extra)."""
     _train_rl("sac", env, seed, steps, out, n_envs, vec_env, reward, checkpoint_every, hp, progress)
