@@ -35,6 +35,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import importlib.util
+import json
 import shutil
 import sys
 import time
@@ -294,8 +295,6 @@ _MAY_CHANGE = {"total_steps", "checkpoint_every", "keep_checkpoints", "log_every
 def _check_or_write_config(out: Path, config: dict[str, Any]) -> None:
     path = out / CONFIG_FILE
     if path.exists():
-        import json
-
         old = json.loads(path.read_text())
         mine = {k: v for k, v in config["args"].items() if k not in _MAY_CHANGE}
         theirs = {k: v for k, v in old.get("args", {}).items() if k not in _MAY_CHANGE}
@@ -598,7 +597,7 @@ def train(algo: Algo | str, args: RLArgs, out: Path | str, progress: bool = True
             total_timesteps=args.total_steps - start,
             callback=monitor,
             reset_num_timesteps=False,
-            log_interval=cast(int, None),
+            log_interval=cast(int, None),  # SB3 accepts None: our callback does the logging
         )
         wall = time.perf_counter() - t0
         if int(model.num_timesteps) > monitor.last_steps:
