@@ -147,8 +147,9 @@ def summary_markdown(out: Path, planned: list[str], table: str, command: str) ->
                 / f"seed{c['seed']}"
             )
             steps = f"{found[-1][0]} (checkpoint)" if found else 0
+        status = "interrupted while training" if c["status"] == "training" else c["status"]
         lines.append(
-            f"| {key} | {c['status']} | {steps} | {c.get('train_wall_s', '')} | "
+            f"| {key} | {status} | {steps} | {c.get('train_wall_s', '')} | "
             f"{c.get('last_chunk_steps_per_s', '')} | {c.get('episodes', '')} | "
             f"{c.get('success_rate', '')} |"
         )
