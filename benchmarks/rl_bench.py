@@ -27,6 +27,7 @@ Changing ``--steps`` starts new cells (the budget is part of the directory and o
 from __future__ import annotations
 
 import argparse
+import csv
 import datetime
 import json
 import sys
@@ -131,8 +132,8 @@ def summary_markdown(out: Path, planned: list[str], table: str, command: str) ->
     """The results table and one row per planned cell (its status, budget and throughput)."""
     cells = load_cells(out)
     lines = [
-        "| cell (algo/env/reward/budget/seed) | status | trained steps | train s | "
-        "steps/s (last chunk) | eval episodes | SR |",
+        "| cell (algo/env/reward/budget/seed) | status | trained steps | train wall s | "
+        "mean steps/s | eval episodes | SR |",
         "|---|---|---|---|---|---|---|",
     ]
     for key in planned + sorted(set(cells) - set(planned)):
@@ -140,17 +141,24 @@ def summary_markdown(out: Path, planned: list[str], table: str, command: str) ->
         if c is None:
             lines.append(f"| {key} | not started | 0 | | | | |")
             continue
+        run_dir = train_root(out, c["algo"], c["env_id"], c["reward"], c["budget_steps"])
+        run_dir = run_dir / f"seed{c['seed']}"
         steps = c.get("trained_steps")
         if steps is None:  # interrupted while training: the newest checkpoint
-            found = list_checkpoints(
-                train_root(out, c["algo"], c["env_id"], c["reward"], c["budget_steps"])
-                / f"seed{c['seed']}"
-            )
-            steps = f"{found[-1][0]} (checkpoint)" if found else 0
+            found = list_checkpoints(run_dir)
+            steps = found[-1][0] if found else 0
+        # Wall time and rate from progress.csv: they cover every chunk of a resumed run.
+        wall, rate = "", ""
+        if (run_dir / "progress.csv").exists():
+            with (run_dir / "progress.csv").open(newline="") as f:
+                rows = list(csv.DictReader(f))
+            if rows:
+                last = rows[-1]
+                wall = last["wall_s"]
+                rate = f"{int(last['steps']) / max(float(last['wall_s']), 1e-9):.0f}"
         status = "interrupted while training" if c["status"] == "training" else c["status"]
         lines.append(
-            f"| {key} | {status} | {steps} | {c.get('train_wall_s', '')} | "
-            f"{c.get('last_chunk_steps_per_s', '')} | {c.get('episodes', '')} | "
+            f"| {key} | {status} | {steps} | {wall} | {rate} | {c.get('episodes', '')} | "
             f"{c.get('success_rate', '')} |"
         )
     return (
