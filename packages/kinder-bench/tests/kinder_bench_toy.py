@@ -51,8 +51,14 @@ class BenchReach(ObjectCentricEnv):
     * v0: initial version.
     """
 
-    def __init__(self, num_pebbles: int = 1, render_mode: str | None = "rgb_array") -> None:
+    def __init__(
+        self,
+        num_pebbles: int = 1,
+        render_mode: str | None = "rgb_array",
+        target_radius: float = 0.1,
+    ) -> None:
         super().__init__(render_mode=render_mode)
+        self.target_radius = target_radius
         self.robot = Object("robot", ROBOT)
         self.target = Object("target", TARGET)
         self.pebbles = [Object(f"pebble{i}", POINT) for i in range(num_pebbles)]
@@ -68,7 +74,7 @@ class BenchReach(ObjectCentricEnv):
     def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
         feats = {
             self.robot: [*rng.uniform(0.0, 0.3, 2), 1.0],
-            self.target: [*rng.uniform(0.5, 0.8, 2), 0.1],
+            self.target: [*rng.uniform(0.5, 0.8, 2), self.target_radius],
         }
         feats.update({p: rng.uniform(0, 1, 2) for p in self.pebbles})
         return ObjectCentricState.from_features(feats)
@@ -98,6 +104,15 @@ if TOY_ID not in gymnasium.registry:
         max_episode_steps=40,
     )
 
+#: An easier variant (target radius 0.3) where RL learns within a few thousand steps.
+EASY_ID = "kinder/BenchReachEasy-v0"
+if EASY_ID not in gymnasium.registry:
+    gymnasium.register(
+        id=EASY_ID,
+        entry_point="kinder_core.registration:make_box_env",
+        kwargs={"env_entry_point": "kinder_bench_toy:BenchReach", "target_radius": 0.3},
+        max_episode_steps=25,
+    )
 
 CRASH_THINK = 0.05
 

@@ -283,7 +283,7 @@ def test_train_cli_mbrl(toy: Path, tmp_path: Path) -> None:
 def test_learned_agents_say_they_need_a_checkpoint() -> None:
     from kinder_bench.agents import unavailable_reason
 
-    for name in ("dp", "dpes", "mbrl", "gsc"):
+    for name in ("dp", "dpes", "mbrl", "gsc", "ppo", "sac"):
         reason = unavailable_reason(name, "kinder/Motion2D-p0-v0", {})
         assert reason is not None and f"kinder train {name}" in reason
         assert unavailable_reason(name, "kinder/Motion2D-p0-v0", {"checkpoint": "x"}) is None

@@ -219,6 +219,18 @@ def _env_for(env_id: str, max_steps: int) -> gymnasium.Env[Any, Any]:
     return _ENV_CACHE[key]
 
 
+def with_run_seed(agent_args: Mapping[str, Any], seed: int) -> dict[str, Any]:
+    """Agent arguments with ``{seed}`` in string values replaced by the run seed.
+
+    This lets one run evaluate per-seed trained policies (``checkpoint=runs/ppo/seed{seed}``):
+    the run id hashes the template, so every seed's results form one method in the report.
+    """
+    return {
+        k: v.replace("{seed}", str(seed)) if isinstance(v, str) else v
+        for k, v in agent_args.items()
+    }
+
+
 def run_episode(task: EpisodeTask) -> dict[str, Any]:
     """Run one episode and return its record; never raises for errors inside the episode."""
     record: dict[str, Any] = {
@@ -246,7 +258,8 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         import_modules(task.imports)
         env = _env_for(task.env_id, task.max_steps)
         phase = "agent"
-        agent = make_agent(task.agent, env, task.agent_args, seed=task.agent_seed)
+        agent_args = with_run_seed(task.agent_args, task.seed)
+        agent = make_agent(task.agent, env, agent_args, seed=task.agent_seed)
         phase = "env"
         t0 = time.perf_counter()
         obs, info = env.reset(seed=task.env_seed)

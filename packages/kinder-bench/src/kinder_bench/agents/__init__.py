@@ -41,6 +41,8 @@ AGENTS: dict[str, str] = {
     "dpes": "kinder_bench.baselines.diffusion:DPESAgent",
     "mbrl": "kinder_bench.baselines.mbrl:MBRLAgent",
     "gsc": "kinder_bench.baselines.gsc.agent:GSCAgent",
+    "ppo": "kinder_bench.baselines.rl.agents:PPOAgent",
+    "sac": "kinder_bench.baselines.rl.agents:SACAgent",
 }
 
 
