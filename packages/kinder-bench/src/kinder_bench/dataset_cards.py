@@ -175,7 +175,8 @@ def card_text(spec: DatasetSpec, base: Path = DATASETS_DIR) -> str:
         "",
         "```python",
         "from kinder_gym.demos.lerobot_format import load_dataset, load_records",
-        f'ds = load_dataset("datasets/{spec.name}/data/lerobot")   # a LeRobotDataset',
+        "",  # ruff formats Python blocks in markdown: the card is written already formatted
+        f'ds = load_dataset("datasets/{spec.name}/data/lerobot")  # a LeRobotDataset',
         f'records = load_records("datasets/{spec.name}/data/lerobot")  # EpisodeRecords',
         "```",
         "",

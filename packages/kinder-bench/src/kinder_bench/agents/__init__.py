@@ -94,8 +94,8 @@ def unavailable_reason(
     try:
         cls = agent_class(name)
         args = make_args(cls, values)
-    except ValueError as e:
-        return f"needs what loading it failed on: {e}"
+    except (ValueError, FileNotFoundError) as e:
+        return f"needs valid arguments: {e}"
     return cls.unavailable(args, env_id)
 
 

@@ -145,6 +145,7 @@ class _SB3Agent(Agent[RLAgentArgs]):
         """Needs a trained checkpoint."""
         del env_id
         return needs_checkpoint(args, cls.name)
+
     algo: ClassVar[str]
 
     def __init__(self, env: gymnasium.Env[Any, Any], args: RLAgentArgs, seed: int) -> None:
