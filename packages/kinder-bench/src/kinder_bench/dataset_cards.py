@@ -84,16 +84,7 @@ def card_text(spec: DatasetSpec, base: Path = DATASETS_DIR) -> str:
     short_args = {k: args[k] for k in sorted(spec.agent_args)} if args else {}
     rows: list[tuple[str, str]] = [
         ("env id", f"`{spec.env_id}`"),
-        (
-            "versions",
-            (
-                ", ".join(
-                    f"{k} {v}" for k, v in sorted((summary or {}).get("versions", {}).items())
-                )
-                or "n/a"
-            )
-            + f"; written with lerobot {_version('lerobot')}",
-        ),
+        ("versions", _versions_text(spec, base, summary)),
         (
             "source",
             f"{SOURCE_TEXT.get(spec.agent, spec.agent)}; agent `{spec.agent}` with "
@@ -186,6 +177,22 @@ def card_text(spec: DatasetSpec, base: Path = DATASETS_DIR) -> str:
         "",
     ]
     return "\n".join(lines)
+
+
+def _versions_text(spec: DatasetSpec, base: Path, summary: dict[str, Any] | None) -> str:
+    """The producing packages' versions (from the dataset, else from a kept episode file)."""
+    versions: dict[str, str] = dict((summary or {}).get("versions", {}))
+    if not versions and spec.collection_dir(base).exists():
+        from kinder_bench.demo_collection import kept_files
+        from kinder_gym.demos.store import load_record
+
+        files = kept_files(spec.collection_dir(base))
+        if files:
+            versions = load_record(files[0]).versions
+    text = ", ".join(f"{k} {v}" for k, v in sorted(versions.items())) or "n/a"
+    if summary:
+        text += f"; written with lerobot {_version('lerobot')}"
+    return text
 
 
 def _version(name: str) -> str:
