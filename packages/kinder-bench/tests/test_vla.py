@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import kinder_core
-from kinder_bench.baselines.vla import VLAAgent, VLAArgs, resize_with_pad
+from kinder_bench.baselines.vla import VLAAgent, VLAArgs
 from kinder_bench.policy_server import wire
 from kinder_bench.policy_server.client import PolicyClient, PolicyServerError
 from kinder_bench.policy_server.replay import ReplayPolicy
@@ -98,14 +98,6 @@ def test_client_reports_an_unreachable_server() -> None:
         port = s.getsockname()[1]
     with pytest.raises(PolicyServerError, match="cannot connect"):
         PolicyClient(f"ws://127.0.0.1:{port}", timeout=2)
-
-
-def test_resize_with_pad_keeps_aspect() -> None:
-    image = np.full((50, 100, 3), 200, dtype=np.uint8)
-    out = resize_with_pad(image, 64)
-    assert out.shape == (64, 64, 3)
-    assert out[0].max() == 0 and out[-1].max() == 0  # bars above and below
-    assert out[32, 5].tolist() == [200, 200, 200]
 
 
 def _scripted_motion2d_episode(env_seed: int) -> tuple[np.ndarray, np.ndarray]:

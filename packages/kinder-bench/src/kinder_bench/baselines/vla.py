@@ -17,7 +17,10 @@ upstream KinDER's openpi bridge sends::
                      "state": float32 robot features},
      "prompt": the env's task, "batch_size": None}
 
-images resized with padding to ``image_size`` (aspect kept, black bars), and executes the first
+with the images, robot state and task text made exactly as the demonstration datasets make them
+(``camera_frames`` at ``image_size`` and ``StateSplit`` of :mod:`kinder_gym.demos.layout`,
+``env_task`` of :mod:`kinder_gym.demos.lerobot_format`), so a policy sees at evaluation what it was
+trained on, and executes the first
 ``action_horizon`` actions (8, as upstream) of the returned chunk, each sliced to the env's action
 size and clipped to its bounds. The runner counts the whole request as inference time. A server
 that cannot be reached, fails, times out or replies malformed data ends the episode as a failure
@@ -39,7 +42,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from kinder_bench.agents.base import Agent, AgentFailure
-from kinder_core import ObjectCentricEnv, ObjectCentricState
+from kinder_gym.demos.layout import StateSplit, camera_frames
+from kinder_gym.demos.lerobot_format import env_task
 
 FloatArray = NDArray[np.float64]
 
@@ -55,7 +59,7 @@ class VLAArgs:
     timeout: float = 60.0
     """Seconds to wait for the connection and for each reply before failing the episode."""
     image_size: int = 224
-    """Side of the square images sent (resize with padding; the paper's 224)."""
+    """Side of the square images sent (the datasets' and the paper's 224)."""
     prompt: str = ""
     """The language instruction; empty: the env's task description."""
     api_key: str = ""
@@ -68,37 +72,6 @@ class VLAArgs:
             raise ValueError(f"image_size must be >= 8, got {self.image_size}")
         if self.timeout <= 0:
             raise ValueError(f"timeout must be > 0, got {self.timeout}")
-
-
-def resize_with_pad(image: NDArray[np.uint8], size: int) -> NDArray[np.uint8]:
-    """``image`` scaled to fit a ``size`` × ``size`` square (bilinear), centred on black."""
-    from PIL import Image
-
-    h, w = image.shape[:2]
-    scale = size / max(h, w)
-    nh, nw = max(1, round(h * scale)), max(1, round(w * scale))
-    resized = np.asarray(Image.fromarray(image).resize((nw, nh), Image.Resampling.BILINEAR))
-    out = np.zeros((size, size, 3), dtype=np.uint8)
-    top, left = (size - nh) // 2, (size - nw) // 2
-    out[top : top + nh, left : left + nw] = resized[..., :3]
-    return out
-
-
-def camera_images(model: ObjectCentricEnv, state: ObjectCentricState) -> dict[str, Any]:
-    """The views a policy sees, keyed ``base``/``wrist``/``overview`` (3D) or ``render`` (2D)."""
-    render_cameras = getattr(model, "render_cameras", None)
-    if render_cameras is None:
-        return {"render": model.render_state(state)}
-    frames: dict[str, Any] = render_cameras(state)
-    if {"base", "wrist", "overview"} <= frames.keys():  # Kinematic3D
-        return {k: frames[k] for k in ("base", "wrist", "overview")}
-    # Dynamic3D: the task's cameras first, then robot_base and robot_wrist.
-    task_cameras = [k for k in frames if k not in ("robot_base", "robot_wrist")]
-    return {
-        "base": frames["robot_base"],
-        "wrist": frames["robot_wrist"],
-        "overview": frames[task_cameras[0]],
-    }
 
 
 class VLAAgent(Agent[VLAArgs]):
@@ -125,11 +98,8 @@ class VLAAgent(Agent[VLAArgs]):
                 "the vla agent needs a policy server: --arg url=ws://HOST:PORT (see the "
                 "kinder-bench README, 'VLA')"
             )
-        model = self.model
-        names = model.box_space.feature_names
-        self._robot = np.asarray([i for i, n in enumerate(names) if n.startswith("robot.")])
-        self._other = np.asarray([i for i, n in enumerate(names) if not n.startswith("robot.")])
-        self._prompt = args.prompt or str(model.metadata.get("summary", ""))
+        self._split = StateSplit.from_env(self.model)
+        self._prompt = args.prompt or env_task(env)
         self._queue: deque[FloatArray] = deque()
         self._client: Any = None
         self.last_server_timing: dict[str, float] = {}
@@ -148,12 +118,11 @@ class VLAAgent(Agent[VLAArgs]):
     def request(self, obs: Any) -> dict[str, Any]:
         """The observation message for ``obs`` (the live state's cameras, robot state, prompt)."""
         vector = np.asarray(obs, dtype=np.float64)
-        state = self.observed_state(vector)
-        size = self.args.image_size
-        views = {k: resize_with_pad(v, size) for k, v in camera_images(self.model, state).items()}
+        views = camera_frames(self.model, self.observed_state(vector), self.args.image_size)
+        robot, environment = self._split.split(vector)
         observation: dict[str, Any] = {
-            "state": vector[self._robot].astype(np.float32),
-            "environment_state": vector[self._other].astype(np.float32),
+            "state": np.asarray(robot, dtype=np.float32),
+            "environment_state": np.asarray(environment, dtype=np.float32),
         }
         if "render" in views:
             observation["base_0_rgb"] = views["render"]
