@@ -99,7 +99,9 @@ def unavailable_reason(
     return cls.unavailable(args, env_id)
 
 
-def _parse_value(raw: Any, annotation: Any, where: str) -> Any:
+def parse_value(raw: Any, annotation: Any, where: str) -> Any:
+    """A command-line string as a value of ``annotation`` (bool, int, float, str, None or JSON);
+    non-strings pass through. ``where`` names the argument in the error."""
     if not isinstance(raw, str):
         return raw
     origin = typing.get_origin(annotation)
@@ -139,8 +141,7 @@ def make_args(cls: type[Agent[Any]], values: Mapping[str, Any] | None = None) ->
         )
     hints = typing.get_type_hints(cls.Args)
     parsed = {
-        k: _parse_value(v, hints[k], f"agent {cls.name!r} argument {k!r}")
-        for k, v in values.items()
+        k: parse_value(v, hints[k], f"agent {cls.name!r} argument {k!r}") for k, v in values.items()
     }
     return cls.Args(**parsed)
 

@@ -54,6 +54,7 @@ from stable_baselines3.common.utils import LinearSchedule, set_random_seed, upda
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecNormalize
 
 import kinder_core
+from kinder_bench.agents import parse_value
 from kinder_bench.baselines.rl.checkpoints import (
     CHECKPOINTS_DIR,
     CONFIG_FILE,
@@ -610,26 +611,6 @@ def train(algo: Algo | str, args: RLArgs, out: Path | str, progress: bool = True
         venv.close()
 
 
-def _convert(raw: str, annotation: Any, where: str) -> Any:
-    options = typing.get_args(annotation) or (annotation,)
-    if type(None) in options and raw.lower() in ("none", "null"):
-        return None
-    for option in options:
-        if option is bool:
-            if raw.lower() in ("1", "true", "yes", "on"):
-                return True
-            if raw.lower() in ("0", "false", "no", "off"):
-                return False
-        elif option in (int, float):
-            try:
-                return option(raw)
-            except ValueError:
-                continue
-        elif option is str:
-            return raw
-    raise ValueError(f"{where}: cannot parse {raw!r} as {annotation}")
-
-
 def make_train_args(algo: str, values: dict[str, Any]) -> RLArgs:
     """``PPOArgs``/``SACArgs`` from a mapping; string values are parsed by the field's type.
 
@@ -644,8 +625,5 @@ def make_train_args(algo: str, values: dict[str, Any]) -> RLArgs:
     unknown = sorted(set(values) - fields)
     if unknown:
         raise ValueError(f"Unknown {algo} argument(s) {unknown}; known: {sorted(fields)}")
-    parsed = {
-        k: _convert(v, hints[k], f"{algo} argument {k!r}") if isinstance(v, str) else v
-        for k, v in values.items()
-    }
+    parsed = {k: parse_value(v, hints[k], f"{algo} argument {k!r}") for k, v in values.items()}
     return cls(**parsed)
