@@ -61,7 +61,12 @@ from kinder_bench.baselines.demo_data import (
     resolve_dataset_env,
 )
 from kinder_bench.results import package_versions, write_json
-from kinder_bench.training.checkpoints import MARKER, find_checkpoint, latest_checkpoint
+from kinder_bench.training.checkpoints import (
+    MARKER,
+    check_resume_config,
+    find_checkpoint,
+    latest_checkpoint,
+)
 from kinder_bench.training.checkpoints import save_checkpoint as save_checkpoint_dir
 from kinder_bench.training.csvlog import CsvLog
 
@@ -415,7 +420,7 @@ def train_diffusion(args: DiffusionTrainArgs, progress: bool = True) -> Path:
         "env_id": env_id,
         "versions": package_versions(),
     }
-    _check_resume_config(out, config_record, ("dataset", "method", "preset", "seed", "batch_size"))
+    check_resume_config(out, config_record, ("dataset", "method", "preset", "seed", "batch_size"))
     write_json(out / "config.json", config_record)
 
     torch.manual_seed(args.seed)
@@ -516,21 +521,6 @@ def _meta(dataset_root: Path) -> Any:
     from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
 
     return LeRobotDatasetMetadata(f"kinder/{dataset_root.name}", root=dataset_root)
-
-
-def _check_resume_config(out: Path, record: Mapping[str, Any], keys: tuple[str, ...]) -> None:
-    import json
-
-    path = out / "config.json"
-    if not path.is_file() or latest_checkpoint(out) is None:
-        return
-    old = json.loads(path.read_text())
-    changed = [k for k in keys if old.get("args", {}).get(k) != record["args"].get(k)]
-    if old.get("trainer") != record["trainer"] or changed:
-        raise ValueError(
-            f"{out} holds a run with different {changed or ['trainer']}; use another --out to "
-            f"start a new run"
-        )
 
 
 def _save_checkpoint(

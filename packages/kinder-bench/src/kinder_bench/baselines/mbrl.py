@@ -50,7 +50,12 @@ from kinder_bench.agents.base import needs_checkpoint
 from kinder_bench.agents.mpc import MPCAgent, MPCArgs
 from kinder_bench.baselines.demo_data import read_dataset_spec, resolve_dataset_env
 from kinder_bench.results import package_versions, write_json
-from kinder_bench.training.checkpoints import MARKER, find_checkpoint, latest_checkpoint
+from kinder_bench.training.checkpoints import (
+    MARKER,
+    check_resume_config,
+    find_checkpoint,
+    latest_checkpoint,
+)
 from kinder_bench.training.checkpoints import save_checkpoint as save_checkpoint_dir
 from kinder_bench.training.csvlog import CsvLog
 
@@ -307,7 +312,7 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
         "env_id": env_id,
         "versions": package_versions(),
     }
-    _check_resume(out, record, ("dataset", "seed", "batch_size", "hidden", "val_fraction"))
+    check_resume_config(out, record, ("dataset", "seed", "batch_size", "hidden", "val_fraction"))
     write_json(out / "config.json", record)
 
     from kinder_gym.demos.lerobot_format import load_records
@@ -406,18 +411,6 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
     write_json(out / "eval.json", evaluation)
     assert last is not None
     return last
-
-
-def _check_resume(out: Path, record: dict[str, Any], keys: tuple[str, ...]) -> None:
-    path = out / "config.json"
-    if not path.is_file() or latest_checkpoint(out) is None:
-        return
-    old = json.loads(path.read_text())
-    changed = [k for k in keys if old.get("args", {}).get(k) != record["args"].get(k)]
-    if old.get("trainer") != record["trainer"] or changed:
-        raise ValueError(
-            f"{out} holds a run with different {changed or ['trainer']}; use another --out"
-        )
 
 
 def save_delta_model(ckpt: Path, model: DeltaModel, env_id: str, epoch: int) -> None:

@@ -9,11 +9,13 @@ directory.
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 #: A file every checkpoint directory holds (what tells a checkpoint from a run directory).
 MARKER = "kinder.json"
@@ -79,3 +81,21 @@ def save_checkpoint(
     for old in checkpoint_dirs(run_dir)[: -max(keep, 1)]:
         shutil.rmtree(old, ignore_errors=True)
     return final
+
+
+def check_resume_config(out: Path, record: Mapping[str, Any], keys: tuple[str, ...]) -> None:
+    """Refuse to resume ``out`` when its checkpointed run had another trainer or other ``keys``.
+
+    ``record`` is the new run's ``config.json`` content (``{"trainer": ..., "args": {...}}``);
+    nothing is checked when ``out`` holds no checkpoint yet.
+    """
+    path = out / "config.json"
+    if not path.is_file() or latest_checkpoint(out) is None:
+        return
+    old = json.loads(path.read_text())
+    changed = [k for k in keys if old.get("args", {}).get(k) != record["args"].get(k)]
+    if old.get("trainer") != record["trainer"] or changed:
+        raise ValueError(
+            f"{out} holds a run with different {changed or ['trainer']}; use another --out to "
+            f"start a new run"
+        )

@@ -4,7 +4,8 @@ The client speaks the chat-completions API through the official ``openai`` packa
 (``pip install 'kinder-bench[llm]'``), so the same code runs against a hosted model or a local
 server (llama.cpp's ``llama-server``, vLLM, Ollama): the model name, base URL and API key come from
 the arguments or the usual environment variables (``OPENAI_BASE_URL``, ``OPENAI_API_KEY``; a local
-server that wants no key gets a placeholder).
+server that wants no key is sent the fixed string ``NO_KEY``, because the ``openai`` package
+refuses an empty key).
 
 **Cache.** Every response is stored under ``cache_dir`` keyed by the SHA-256 of the full request
 (model, messages including images, sampling parameters, seed), one JSON file per request written
@@ -35,7 +36,7 @@ from kinder_bench.results import write_json
 CacheMode = Literal["use", "only", "off"]
 CACHE_MODES: tuple[str, ...] = ("use", "only", "off")
 
-#: Placeholder key for local servers that do not check one (the ``openai`` client needs a value).
+#: The key sent to local servers that check none (the ``openai`` client refuses an empty key).
 NO_KEY = "no-key"
 
 
@@ -95,7 +96,7 @@ class ChatClient:
         model: The model name sent to the endpoint.
         base_url: The endpoint (e.g. ``http://127.0.0.1:8080/v1``); None: ``OPENAI_BASE_URL`` or
             OpenAI's.
-        api_key: The key; None: the environment variable ``api_key_env``, else a placeholder.
+        api_key: The key; None: the environment variable ``api_key_env``, else ``NO_KEY``.
         api_key_env: Where to read the key when ``api_key`` is None.
         cache_dir: The response cache.
         cache_mode: ``use``, ``only`` or ``off``.
