@@ -175,3 +175,14 @@ def test_collect_from_mpc_and_scripted_agents(
     record = load_record(tmp_path / "episodes" / outcome.kept[0]["file"])
     assert record.source == source and record.success and record.skills == []
     assert record.metadata["agent"] == agent
+
+
+def test_dataset_instances_are_apart_from_evaluation_instances() -> None:
+    from kinder_bench.dataset_specs import DATASETS
+    from kinder_bench.demo_collection import evaluation_overlap, resolve_collect
+
+    for spec in DATASETS.values():
+        attempts = resolve_collect(spec.collect_config()).max_attempts
+        assert evaluation_overlap(spec.seed, attempts) == set(), spec.name
+    # The check can fail: collection seed 0 draws evaluation seed 0's instances.
+    assert len(evaluation_overlap(0, 50)) == 50

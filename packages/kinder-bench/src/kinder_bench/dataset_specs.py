@@ -29,7 +29,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from kinder_bench.demo_collection import CollectConfig
+from kinder_bench.demo_collection import COLLECTION_SEED, CollectConfig
 
 #: Where the datasets live (relative to the repository root): ``datasets/<name>/``.
 DATASETS_DIR = Path("datasets")
@@ -49,7 +49,8 @@ class DatasetSpec:
         default_factory=lambda: {"planning_timeout": COLLECT_PLANNING_TIMEOUT}
     )
     episodes: int = 100
-    seed: int = 0
+    seed: int = COLLECTION_SEED
+    """Collection seed, outside the evaluation seeds (see ``COLLECTION_SEED``)."""
     images: bool = True
     why: str = ""
     """Why the dataset is in the set (for the card)."""

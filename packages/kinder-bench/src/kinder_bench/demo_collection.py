@@ -64,6 +64,27 @@ CONFIG_FILE = "collect.json"
 DEFAULT_ATTEMPTS_PER_EPISODE = 10
 
 
+#: The default collection seed. Collection draws env instances exactly as the runner does
+#: (``episode_seeds(seed, n)``), so a collection seed among the evaluation seeds (0-4) would train
+#: on the very instances the benchmark evaluates; 1000 draws a disjoint set (checked by
+#: :func:`evaluation_overlap` and the tests).
+COLLECTION_SEED = 1000
+#: The run seeds the benchmark evaluates with (``kinder bench run --seeds 0-4``).
+EVALUATION_SEEDS = range(5)
+#: The most episodes per evaluation seed the overlap check covers (the paper's 50).
+EVALUATION_EPISODES = 50
+
+
+def evaluation_overlap(seed: int, attempts: int) -> set[int]:
+    """The env seeds that a collection with ``seed`` and ``attempts`` shares with evaluation.
+
+    Evaluation covers :data:`EVALUATION_SEEDS` × :data:`EVALUATION_EPISODES`; an empty set means
+    no training instance is an evaluation instance.
+    """
+    evaluated = {s for run in EVALUATION_SEEDS for s in episode_seeds(run, EVALUATION_EPISODES)}
+    return evaluated.intersection(episode_seeds(seed, attempts))
+
+
 @dataclasses.dataclass(frozen=True)
 class CollectConfig:
     """What to collect."""
@@ -77,8 +98,9 @@ class CollectConfig:
     """Overrides of the agent's ``Args`` defaults."""
     episodes: int = 100
     """Successful episodes wanted."""
-    seed: int = 0
-    """The collection seed (fixes every attempt's env and agent seeds)."""
+    seed: int = COLLECTION_SEED
+    """The collection seed (fixes every attempt's env and agent seeds); keep it outside the
+    evaluation seeds (see :data:`COLLECTION_SEED`)."""
     max_steps: int | None = None
     """Step budget per attempt; None: the paper's budget for its eight envs, else the env's."""
     max_attempts: int | None = None
@@ -437,12 +459,15 @@ def _log_build(out: Path, episodes: int, frames: int, seconds: float, images: bo
 
 __all__ = [
     "ATTEMPTS_FILE",
+    "COLLECTION_SEED",
+    "EVALUATION_SEEDS",
     "AttemptTask",
     "CollectConfig",
     "CollectOutcome",
     "build_dataset",
     "collect",
     "episode_path",
+    "evaluation_overlap",
     "kept_attempts",
     "kept_files",
     "read_attempts",

@@ -64,7 +64,9 @@ def collect_cmd(
     agent: Annotated[str, typer.Option(help="Agent producing the demos.")] = "bilevel_planning",
     args: ArgOpt = None,
     episodes: Annotated[int, typer.Option(help="Successful episodes to keep.")] = 100,
-    seed: Annotated[int, typer.Option(help="Collection seed.")] = 0,
+    seed: Annotated[
+        int, typer.Option(help="Collection seed (1000: instances apart from evaluation's 0-4).")
+    ] = 1000,
     max_steps: Annotated[int | None, typer.Option(help="Step budget per attempt.")] = None,
     max_attempts: Annotated[
         int | None, typer.Option(help="Attempt budget (default 10 × episodes).")
@@ -81,12 +83,26 @@ def collect_cmd(
 ) -> None:
     """Collect successful demonstrations of one env (resumable), then build the dataset."""
     from kinder_bench.cli import _import, parse_agent_args
-    from kinder_bench.demo_collection import CollectConfig, build_dataset, collect
+    from kinder_bench.demo_collection import (
+        CollectConfig,
+        build_dataset,
+        collect,
+        evaluation_overlap,
+        resolve_collect,
+    )
 
     mods = _import(imports)
     agent_args = parse_agent_args(args, [agent])[agent]
     config = CollectConfig(env_id, agent, agent_args, episodes, seed, max_steps, max_attempts)
     with user_errors():
+        shared = evaluation_overlap(seed, resolve_collect(config).max_attempts)
+        if shared:
+            typer.secho(
+                f"warning: collection seed {seed} draws {len(shared)} instances that evaluation "
+                "seeds 0-4 also use; policies trained on them are evaluated on seen instances",
+                fg=typer.colors.YELLOW,
+                err=True,
+            )
         outcome = collect(config, out, executor, workers, mods, progress)
     n, tried = len(outcome.kept), outcome.attempted_for_kept
     typer.echo(
