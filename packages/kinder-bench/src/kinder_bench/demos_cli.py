@@ -7,6 +7,7 @@
 * ``replay``: replay every episode from its seed; states must match to 1e-9.
 * ``info`` / ``show``: counts, lengths, success, skills, size, checksum; a GIF of an episode.
 * ``convert``: upstream pickles / HDF5 / LeRobot datasets into LeRobot datasets or HDF5.
+* ``export-openpi``: a dataset in the LeRobot v2.1 layout openpi reads (π0.5 fine-tuning).
 * ``datasets``: the project's ten datasets (``make datasets``): collect, build, write the cards.
 """
 
@@ -346,3 +347,45 @@ def datasets_cmd(
                 path = write_card(spec, base)
                 typer.echo(f"{spec.name}: wrote {path}")
         typer.echo(f"{spec.name}: {time.perf_counter() - started:.1f} s")
+
+
+@demos_app.command("export-openpi")
+def export_openpi_cmd(
+    dataset: Annotated[Path, typer.Argument(help="A KinDER LeRobot demo dataset (v3).")],
+    out: Annotated[
+        Path,
+        typer.Argument(
+            help="The export directory; openpi finds it as $HF_LEROBOT_HOME/<repo_id>, so "
+            "name it e.g. $HF_LEROBOT_HOME/kinder/Motion2D-p0."
+        ),
+    ],
+    images: Annotated[
+        bool, typer.Option(help="Render the camera images (PNG in the parquet files).")
+    ] = True,
+    overwrite: Annotated[bool, typer.Option(help="Replace a non-empty OUT.")] = False,
+    progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
+) -> None:
+    """Export a dataset to the LeRobot v2.1 layout openpi's data loader reads (π0.5
+    fine-tuning; see docs/vla.md)."""
+    from tqdm import tqdm
+
+    from kinder_gym.demos.openpi_format import ExportError, export_openpi
+
+    bar = tqdm(disable=not progress, desc="export-openpi", unit="episode")
+
+    def step(done: int, total: int) -> None:
+        bar.total = total
+        bar.update(done - bar.n)
+
+    try:
+        summary = export_openpi(dataset, out, images=images, overwrite=overwrite, progress=step)
+    except (*_dataset_errors(), ExportError, FileNotFoundError) as e:
+        fail(str(e))
+    finally:
+        bar.close()
+    typer.echo(
+        f"wrote {summary.out}: {summary.episodes} episodes, {summary.frames} frames of "
+        f"{summary.env_id} (images {list(summary.image_keys)}, state {summary.state_dim}, "
+        f"environment_state {summary.env_state_dim}, actions {summary.action_dim}, "
+        f"fps {summary.fps})"
+    )
