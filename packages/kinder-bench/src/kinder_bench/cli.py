@@ -16,6 +16,7 @@ from kinder_bench.demos_cli import demos_app
 from kinder_bench.envs import short_id
 from kinder_bench.executors import EXECUTORS
 from kinder_bench.recording import VIDEO_FORMATS
+from kinder_bench.serve_cli import serve_cmd
 from kinder_bench.teleop_cli import teleop_cmd
 from kinder_bench.training.cli import train_app
 
@@ -31,6 +32,7 @@ app.add_typer(bench_app, name="bench")
 app.add_typer(train_app, name="train")
 app.add_typer(demos_app, name="demos")
 app.command("teleop")(teleop_cmd)
+app.command("serve")(serve_cmd)
 
 ImportOpt = Annotated[
     list[str] | None,

@@ -28,7 +28,13 @@ whose error names the cause.
 
 Deviation: upstream sends no environment state (π0.5 sees images, robot state and the prompt);
 we add ``observation["environment_state"]`` (float32, every non-robot feature) so that
-DPES-style policies can be served the same way. openpi policies ignore keys they do not use.
+DPES-style policies can be served the same way, and a top-level ``"kinder"`` entry
+(``observation``: the full float64 Box observation; ``episode``: this agent's episode count,
+which changes at every ``reset``; ``seed``: the agent's seed), with which ``kinder serve`` runs
+our own agents (DP, DPES, ...) exactly as in process and resets their history per episode
+(:mod:`kinder_bench.policy_server.agent_policy`). openpi policies ignore keys they do not use.
+A served chunk shorter than ``action_horizon`` (``kinder serve`` answers one action) is executed
+whole, and the next step asks again.
 """
 
 from __future__ import annotations
@@ -102,6 +108,7 @@ class VLAAgent(Agent[VLAArgs]):
         self._prompt = args.prompt or env_task(env)
         self._queue: deque[FloatArray] = deque()
         self._client: Any = None
+        self._episode = -1
         self.last_server_timing: dict[str, float] = {}
 
     def reset(self, obs: Any, info: dict[str, Any]) -> None:
@@ -110,6 +117,7 @@ class VLAAgent(Agent[VLAArgs]):
         del obs, info
         self.close()
         self._queue.clear()
+        self._episode += 1
         try:
             self._client = PolicyClient(self.args.url, self.args.timeout, self.args.api_key or None)
         except PolicyServerError as e:
@@ -130,7 +138,13 @@ class VLAAgent(Agent[VLAArgs]):
             observation["base_0_rgb"] = views["base"]
             observation["left_wrist_0_rgb"] = views["wrist"]
             observation["right_wrist_0_rgb"] = views["overview"]
-        return {"observation": observation, "prompt": self._prompt, "batch_size": None}
+        kinder = {"observation": vector, "episode": self._episode, "seed": self.seed}
+        return {
+            "observation": observation,
+            "prompt": self._prompt,
+            "batch_size": None,
+            "kinder": kinder,
+        }
 
     def act(self, obs: Any) -> FloatArray:
         from kinder_bench.policy_server.client import PolicyServerError

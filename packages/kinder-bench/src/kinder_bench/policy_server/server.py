@@ -2,7 +2,10 @@
 
 Any object with ``infer(observation) -> dict`` (returning at least ``actions``) and a ``metadata``
 dict is a :class:`Policy`. :class:`PolicyServer` makes a fresh policy per connection from a
-factory, so per-episode state (observation history, action queue) never leaks between episodes.
+factory, so per-episode state (observation history, action queue) never leaks between episodes,
+and calls the policy's ``close()``, when it has one, when the connection ends. A factory that
+raises (e.g. a busy :class:`~.agent_policy.AgentService`) is reported to the client like a failed
+inference: the traceback as a text frame, then close code 1011.
 """
 
 from __future__ import annotations
@@ -65,7 +68,20 @@ class PolicyServer:
         return None
 
     def _handle(self, connection: ServerConnection) -> None:
-        policy = self.factory()
+        try:
+            policy = self.factory()
+        except Exception:  # e.g. busy: tell the client why, as openpi reports failures
+            connection.send(traceback.format_exc())
+            connection.close(CloseCode.INTERNAL_ERROR, "internal server error")
+            return
+        try:
+            self._serve(connection, policy)
+        finally:
+            close = getattr(policy, "close", None)
+            if callable(close):
+                close()
+
+    def _serve(self, connection: ServerConnection, policy: Policy) -> None:
         connection.send(wire.packb(dict(policy.metadata)))
         previous_total: float | None = None
         while True:
