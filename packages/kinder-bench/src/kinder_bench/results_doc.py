@@ -24,6 +24,18 @@ from kinder_bench.report import CSV_COLUMNS
 
 GENERATOR = "make results-doc"
 
+#: The note of the VLA (π0.5) cells: what they need and how to fill them (docs/vla.md).
+VLA_REASON = (
+    "π0.5 needs a GPU and its weights, which this project's machines do not have (no GPU, no "
+    "model hub), so these cells were not run. On a GPU machine with openpi (docs/vla.md): "
+    "`kinder demos export-openpi datasets/<name>/data/lerobot $HF_LEROBOT_HOME/kinder/<name>`; in "
+    "openpi, with the `pi05_kinder` config of docs/vla.md, `uv run scripts/compute_norm_stats.py "
+    "--config-name pi05_kinder`, `uv run scripts/train.py pi05_kinder --exp-name=<name>` and "
+    "`uv run scripts/serve_policy.py policy:checkpoint --policy.config=pi05_kinder "
+    "--policy.dir=checkpoints/pi05_kinder/<name>/29999`; then `kinder bench run --agent vla "
+    "--arg url=ws://HOST:8000 -e <env> --seeds 0-4 --episodes 50`"
+)
+
 
 def summary_files(results_dir: Path | str) -> list[Path]:
     """The committed run summaries, in name order."""
@@ -43,6 +55,8 @@ def _committed_reason(agent: str, env_id: str) -> str:
     del env_id
     if agent not in AGENTS:
         return "the project has no such agent yet"
+    if agent == "vla":
+        return VLA_REASON
     return (
         "not in the committed results (`kinder agents` says whether it can run on your "
         "machine, and what it needs)"
