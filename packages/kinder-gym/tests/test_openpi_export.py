@@ -158,3 +158,31 @@ def test_export_refuses_a_used_directory_and_replaces_atomically(tmp_path: Path)
     assert "base_0_rgb" not in info["features"] and info["total_episodes"] == 1
     with pytest.raises(DatasetError, match="missing"):
         export_openpi(tmp_path / "nowhere", tmp_path / "x")
+
+
+def test_an_interrupted_export_resumes(tmp_path: Path) -> None:
+    class Stop(Exception):
+        pass
+
+    def stop_after_two(done: int, total: int) -> None:
+        if done == 2:
+            raise Stop
+
+    out = tmp_path / "out"
+    with pytest.raises(Stop):
+        export_openpi(FIXTURE, out, images=False, progress=stop_after_two)
+    assert not out.exists()
+    partial = tmp_path / ".out.openpi-partial"
+    first = partial / "data" / "chunk-000" / "episode_000000.parquet"
+    written = first.stat().st_mtime_ns
+    assert not (partial / "data" / "chunk-000" / "episode_000002.parquet").exists()
+    export_openpi(FIXTURE, out, images=False)  # resumes: episodes 0 and 1 are kept
+    assert (out / "data" / "chunk-000" / "episode_000000.parquet").stat().st_mtime_ns == written
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    fresh = tmp_path / "fresh"
+    export_openpi(FIXTURE, fresh, images=False)
+    for name in ("data/chunk-000/episode_000002.parquet", "meta/episodes_stats.jsonl"):
+        assert (out / name).read_bytes() == (fresh / name).read_bytes(), name
+    assert sorted(p.relative_to(out) for p in out.rglob("*")) == sorted(
+        p.relative_to(fresh) for p in fresh.rglob("*")
+    )

@@ -53,13 +53,17 @@ Choices, written down:
   reads and aggregates them when it opens the dataset.
 * ``robot_type`` is ``"kinder"``; no ``stats.json`` is written (v2.1 reads the episode stats).
 
-The export is written to a temporary sibling directory and moved into place at the end, so an
-interrupted export leaves no half-written ``OUT``.
+The export is written to a sibling directory ``.OUT.openpi-partial`` and moved into place at the
+end, so an interrupted export never leaves a half-written ``OUT``; it is also **resumable**:
+rerunning the same export (same source dataset, selection and ``images``) keeps the episodes
+already written there (each episode's parquet file and statistics are written atomically) and
+continues from the first missing one. A different export into the same ``OUT`` starts afresh.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import io
 import json
 import math
@@ -87,6 +91,8 @@ CODEBASE_VERSION = "v2.1"
 CHUNK_SIZE = 1000
 DATA_PATH = "data/chunk-{episode_chunk:03d}/episode_{episode_index:06d}.parquet"
 SIDECAR = "meta/kinder_openpi.json"
+PARTIAL = "kinder_openpi_partial.json"
+EPISODE_STATS = "episode_stats"
 EXPORT_VERSION = 1
 
 #: Our camera names → the exported image keys (upstream KinDER's openpi request keys).
@@ -224,7 +230,9 @@ def _write_jsonl(path: Path, rows: Sequence[Mapping[str, Any]]) -> None:
     path.write_text("".join(json.dumps(row) + "\n" for row in rows))
 
 
-def _prepare_out(out: Path, overwrite: bool) -> Path:
+def _prepare_out(out: Path, overwrite: bool, key: Mapping[str, Any]) -> Path:
+    """The partial directory to export into: kept from an interrupted export of the same
+    ``key`` (source, selection, images), otherwise made empty."""
     if out.exists() and not out.is_dir():
         raise ExportError(f"{out}: exists and is not a directory")
     if out.is_dir() and any(out.iterdir()) and not overwrite:
@@ -232,14 +240,31 @@ def _prepare_out(out: Path, overwrite: bool) -> Path:
             f"{out}: exists and is not empty; choose a new directory or pass overwrite "
             f"(--overwrite) to replace it"
         )
-    tmp = out.with_name(f".{out.name}.openpi-tmp-{os.getpid()}")
+    tmp = out.with_name(f".{out.name}.openpi-partial")
+    marker = tmp / PARTIAL
     if tmp.exists():
+        try:
+            same = json.loads(marker.read_text()) == json.loads(json.dumps(key))
+        except (OSError, json.JSONDecodeError):
+            same = False
+        if same:
+            return tmp
         shutil.rmtree(tmp)
     tmp.mkdir(parents=True)
+    _write_json(marker, key)
     return tmp
 
 
+def _write_atomic(path: Path, write: Callable[[Path], None]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    part = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    write(part)
+    os.replace(part, path)
+
+
 def _commit(tmp: Path, out: Path) -> None:
+    (tmp / PARTIAL).unlink()
+    shutil.rmtree(tmp / EPISODE_STATS, ignore_errors=True)
     old = out.with_name(f".{out.name}.openpi-old-{os.getpid()}")
     if out.exists():
         os.replace(out, old)
@@ -297,22 +322,31 @@ def export_openpi(
 
     import pyarrow.parquet as pq
 
-    tmp = _prepare_out(out, overwrite)
+    resume_key = {
+        "export_version": EXPORT_VERSION,
+        "source": str(dataset.resolve()),
+        "source_info_mtime_ns": (dataset / "meta" / "info.json").stat().st_mtime_ns,
+        "episodes": None if episodes is None else [int(e) for e in episodes],
+        "images": images,
+    }
+    tmp = _prepare_out(out, overwrite, resume_key)
     try:
         lengths, stats_lines, total = [], [], 0
         for i, record in enumerate(records):
-            columns = _episode_columns(record, split, env, cameras, size, fps, i, total)
-            table = _episode_table(
-                {k: v for k, v in columns.items() if k not in image_keys}
-                | {k: [_png(f) for f in columns[k]] for k in image_keys},
-                features,
-                metadata,
-            )
             path = tmp / DATA_PATH.format(episode_chunk=i // CHUNK_SIZE, episode_index=i)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            pq.write_table(table, path)
-            stats = {key: _stats(np.asarray(columns[key])) for key in features}
-            stats_lines.append({"episode_index": i, "stats": stats})
+            stats_path = tmp / EPISODE_STATS / f"episode_{i:06d}.json"
+            if not (path.exists() and stats_path.exists()):  # else done by an earlier run
+                columns = _episode_columns(record, split, env, cameras, size, fps, i, total)
+                table = _episode_table(
+                    {k: v for k, v in columns.items() if k not in image_keys}
+                    | {k: [_png(f) for f in columns[k]] for k in image_keys},
+                    features,
+                    metadata,
+                )
+                _write_atomic(path, functools.partial(pq.write_table, table))
+                stats = {k: _stats(np.asarray(columns[k])) for k in features}
+                _write_atomic(stats_path, functools.partial(_write_json, obj=stats))
+            stats_lines.append({"episode_index": i, "stats": json.loads(stats_path.read_text())})
             lengths.append(record.num_steps)
             total += record.num_steps
             if progress is not None:
@@ -354,9 +388,6 @@ def export_openpi(
             },
         )
         _commit(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     finally:
         if env is not None:
             env.close()
