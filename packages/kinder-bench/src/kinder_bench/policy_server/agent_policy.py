@@ -36,10 +36,12 @@ observation queues), so a service serves one session at a time: a second connect
 ``busy_timeout`` seconds for the first to close, then gets a server error naming the cause. Run
 ``kinder bench run --workers 1`` against one server, or one server per worker.
 
-The env is the runner's (``make_env``). The agent sees, as ``obs``, the received observation;
-the env's own state (reset once per episode, seed 0) is never stepped, so agents that read
-the live state through :meth:`~kinder_bench.agents.base.Agent.observed_state` get the state
-rebuilt from the observation (exact for the Box vector; hidden simulator state is not sent).
+The service makes one agent when it starts, so imports and checkpoint loading happen before
+the first client waits (inside its timeout). The env is the runner's (``make_env``). The agent
+sees, as ``obs``, the received observation; the env's own state (reset once per episode, seed 0)
+is never stepped, so agents that read the live state through
+:meth:`~kinder_bench.agents.base.Agent.observed_state` get the state rebuilt from the
+observation (exact for the Box vector; hidden simulator state is not sent).
 """
 
 from __future__ import annotations
@@ -89,6 +91,10 @@ class AgentService:
         self.env = make_env(self.env_id, render_mode="rgb_array")
         self.split = StateSplit.from_env(self.env)
         self.dim = int(self.env.observation_space.shape[0])  # type: ignore[index]
+        # Make one agent now, so that imports and checkpoint loading (DP's policy is cached per
+        # process) happen before the first client waits on them, not inside its timeout.
+        self.env.reset(seed=0)
+        make_agent(agent, self.env, self.args, seed=seed)
         self.lock = threading.Lock()
         self.metadata: dict[str, Any] = {
             "policy": "kinder-agent",
