@@ -98,7 +98,7 @@ SPACING = 0.035
 #: Static hinge angle (rad) the Place sampler aims to stay below.
 SAMPLER_ANGLE = math.radians(2.0)
 #: Height (m) of the block's bottom above the beam top when the fingers open.
-DROP = 0.008
+DROP = 0.015
 #: Height (m) the hand rises after releasing.
 RETREAT = 0.08
 #: Radius (m) of a circle around the 0.4 m square chassis, plus a margin.
@@ -275,7 +275,7 @@ class PlaceController(_ShelfController):
 
         def lower(s: ObjectCentricState) -> list[SegmentSource]:
             target = _Beam(ctx, s).point(u, half + DROP)
-            return list(line_segments(s, robot, target, heading, PITCH, 1.0))
+            return list(line_segments(s, robot, target, heading, PITCH, 1.0, final_tol=0.02))
 
         def retreat(s: ObjectCentricState) -> list[SegmentSource]:
             here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
