@@ -19,15 +19,18 @@ block OnBeam, Balanced, and HandEmpty.
 
 Skills (the segment controller of :mod:`kinder_gym.models.dynamic3d.tidybot`):
 
-* Pick: retract the arm, drive the base straight to a sampled standoff facing the block along
-  one of its faces (roughly facing the seesaw), reach above it with the gripper pitched 45° down,
-  descend along a straight line until the pinch point is at the block's top face, close, and
-  lift to 15 cm. Shelf3D's pick (:mod:`~kinder_gym.models.dynamic3d.shelf3d`) is not reused as a
-  whole because its approach and path checks are tied to the cupboard; its grasp constants
-  (pitch, arm seed, gripper timing) are.
-* Place: keep the arm as it is, drive the base to where the pinch point is above the sampled
-  spot of the beam (approaching across the beam from the robot's side), lower the block along a
-  straight line to 8 mm above the beam's (possibly tilted) top, open, and lift the hand 8 cm.
+* Pick: retract the arm, drive the base (straight or through one waypoint) to a sampled
+  standoff facing the block along one of its faces (roughly facing the seesaw), reach above it
+  with the gripper pitched 45° down, descend along a straight line until the pinch point is at
+  the block's top face, close, and lift to 15 cm. Shelf3D's pick
+  (:mod:`~kinder_gym.models.dynamic3d.shelf3d`) is not reused as a whole because its approach
+  and path checks are tied to the cupboard; its grasp constants (pitch, arm seed, gripper
+  timing) and base driving are.
+* Place: keep the arm as it is, drive the base (likewise) to where the pinch point is above the
+  sampled spot of the beam (approaching across the beam from the robot's side), lower the block
+  along a straight line until its bottom is 1.5 cm above the beam's (possibly tilted) top (the
+  fingertips reach below the block: lower, they would press on the beam), open, and lift the
+  hand 8 cm.
 
 Parameters: Pick ``(dist, angle)`` in [0, 1]² (standoff 0.50 + 0.10·dist m; approach face nearest
 to (angle − 0.5)·π/2 rad off the heading towards the seesaw). Place ``(u,)`` in [0, 1]: the spot
@@ -42,7 +45,8 @@ Differences from upstream: upstream kindergarden 0.2.5 has no BP model for this 
 ``/work/shared/spec/baselines.md``); this one is ours. Limits: a block that falls off the beam or
 onto the seesaw's base plate is in no concept (the planner backtracks); the chassis passes over
 blocks on the floor (its underside is 2 cm up, the large block 1.8 cm high) but the straight base
-paths keep 5 cm from them. Imports kinder_garden3d (the ``[3d]`` extra).
+paths keep their centre 5 cm from them (as Shelf3D's do), through one waypoint beside the
+straight line where that is blocked. Imports kinder_garden3d (the ``[3d]`` extra).
 """
 
 from __future__ import annotations
@@ -184,6 +188,25 @@ def _spot_ok(ctx: BalanceContext, state: ObjectCentricState, block: Object, u: f
     return abs(torque) / ctx.stiffness < SAMPLER_ANGLE
 
 
+def _route(
+    ctx: BalanceContext, state: ObjectCentricState, skip: Object, goal: FloatArray
+) -> list[FloatArray]:
+    """Base poses driving from the current base pose to ``goal``: straight, or through one
+    waypoint beside the straight line (0.15, 0.3 or 0.45 m off its middle) when the straight path
+    passes a block on the floor or the seesaw; SkillFailure when none is clear."""
+    a = base_pose(state, ctx.robot)[:2]
+    b = goal[:2]
+    if _path_clear(ctx, state, skip, a, b):
+        return [goal]
+    d = b - a
+    perp = np.array([-d[1], d[0]]) / max(float(np.linalg.norm(d)), 1e-9)
+    for off in (0.15, -0.15, 0.3, -0.3, 0.45, -0.45):
+        w = (a + b) / 2 + off * perp
+        if _path_clear(ctx, state, skip, a, w) and _path_clear(ctx, state, skip, w, b):
+            return [np.array([*w, goal[2]]), goal]
+    raise SkillFailure("no clear straight or one-waypoint base path")
+
+
 class PickController(_ShelfController):
     """Pick a block off the floor. Objects: ``(robot, block)``."""
 
@@ -202,7 +225,6 @@ class PickController(_ShelfController):
         robot, block = self.objects
         dist = 0.50 + 0.10 * float(self.params[0])
         c = np.array([state.get(block, "x"), state.get(block, "y")])
-        b0 = base_pose(state, robot)
         towards = np.array([state.get(ctx.seesaw, "x"), state.get(ctx.seesaw, "y")]) - c
         wanted = math.atan2(towards[1], towards[0]) + (float(self.params[1]) - 0.5) * math.pi / 2
         block_yaw = _yaw_of(np.asarray(state[block][3:7]))
@@ -210,8 +232,7 @@ class PickController(_ShelfController):
         heading = wrap_angle(block_yaw + k * math.pi / 2)
         direction = np.array([math.cos(heading), math.sin(heading)])
         goal = np.array([*(c - dist * direction), heading])
-        if not _path_clear(ctx, state, block, b0[:2], goal[:2]):
-            raise SkillFailure("Pick: the straight base path is blocked")
+        route = _route(ctx, state, block, goal)
         quat = gripper_quat(heading, PITCH)
         size = float(state.get(block, "bb_z"))
         grasp = np.array([*(c - 0.003 * direction), size])
@@ -232,6 +253,7 @@ class PickController(_ShelfController):
         plan: list[SegmentSource] = []
         if np.abs(arm_joints(state, robot) - HOME).max() > 0.05:
             plan.append(_arm_segment(HOME, 0.05))
+        plan += [self._drive(p, HOME, 0.0, 0.03) for p in route[:-1]]
         plan += [self._drive(goal, HOME, 0.0, 0.01), reach_above, descend, _grip(1.0), lift]
         return plan
 
@@ -270,8 +292,7 @@ class PlaceController(_ShelfController):
         half = float(state.get(block, "bb_z")) / 2
         spot = beam.point(u, half + DROP)
         goal = np.array([*(spot[:2] - offset), heading])
-        if not _path_clear(ctx, state, block, b0[:2], goal[:2]):
-            raise SkillFailure("Place: the straight base path is blocked")
+        route = _route(ctx, state, block, goal)
 
         def lower(s: ObjectCentricState) -> list[SegmentSource]:
             target = _Beam(ctx, s).point(u, half + DROP)
@@ -282,7 +303,8 @@ class PlaceController(_ShelfController):
             target = here + np.array([0.0, 0.0, RETREAT])
             return list(line_segments(s, robot, target, heading, PITCH, 0.0, spacing=0.04))
 
-        return [self._drive(goal, arm, 1.0, 0.01), lower, _grip(0.0), retreat]
+        drives: list[SegmentSource] = [self._drive(p, arm, 1.0, 0.03) for p in route[:-1]]
+        return [*drives, self._drive(goal, arm, 1.0, 0.01), lower, _grip(0.0), retreat]
 
 
 def _arm_segment(q: FloatArray, tol: float = 0.01) -> SegmentSource:
