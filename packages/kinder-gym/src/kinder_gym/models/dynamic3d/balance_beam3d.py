@@ -46,7 +46,10 @@ Differences from upstream: upstream kindergarden 0.2.5 has no BP model for this 
 onto the seesaw's base plate is in no concept (the planner backtracks); the chassis passes over
 blocks on the floor (its underside is 2 cm up, the large block 1.8 cm high) but the straight base
 paths keep their centre 5 cm from them (as Shelf3D's do), through one waypoint beside the
-straight line where that is blocked. Imports kinder_garden3d (the ``[3d]`` extra).
+straight line where that is blocked. The env's beam region reaches 4 cm above the beam, so the
+env may report the goal reached while the last block is still held just above the beam (the
+planner stops there, as the env's goal says it is done); the model's own goal also asks for
+HandEmpty. Imports kinder_garden3d (the ``[3d]`` extra).
 """
 
 from __future__ import annotations
