@@ -9,13 +9,14 @@ below its rim's mid-height (the env's ``on(cube_i, blocks_goal_region)``).
 
 Why this model does not toss (measured, this env): the bundled Tossing3D action is 11-D (as
 upstream kindergarden 0.2.5) and the arm tracks joint targets at most 0.1 rad ahead of the
-measured angles, so each joint turns at about 0.5 rad/s and the base drives at about
-0.87 m/s (``benchmarks/tossing_speed.py`` measures both and the fastest swing). The fastest
-release it finds (base driving, shoulder, elbow and wrist swinging together) gives the cube
-about 1.6 m/s, which flies about 0.6 m from a 1 m release height, while the bin's centre is
-1.3–2.1 m beyond the barrier. A toss from behind the barrier therefore cannot reach the bin
-with this action space (upstream's tossing skill relies on its older 18-D action with unbounded
-joint-velocity targets, and upstream 0.2.5's o1 bin stands at x ∈ [1.48, 2.3]). What the env
+measured angles, so a joint turns at about 0.4–0.6 rad/s and the base drives at 0.87 m/s. The
+fastest pinch-point motion found (base driving at full speed while joints 2, 4 and 6 swing at
+full speed; ``python benchmarks/tossing_speed.py``) is 1.33 m/s, and a cube released at that
+speed from 1 m flies at most 0.63 m. The base stops 0.2 m short of the barrier (x ≈ 1.1), the
+pinch point reaches at most about 0.9 m ahead of it, so a released cube lands before x ≈ 2.6,
+while the bin's centre is at x ∈ [2.6, 3.42]: a toss from behind the barrier cannot reach the
+bin with this action space. (Upstream's tossing skill used its older 18-D action with unbounded
+joint-velocity targets, and upstream 0.2.5's o1 bin stands at x ∈ [1.48, 2.3].) What the env
 does allow, and the model uses, is the barrier's mobility: driven into it, the base topples it
 (it tips about its bottom edge and lies 3 cm high, and the base drives over it, both ways).
 The cube is then carried to the bin and released above it: a drop, closed-loop like every
@@ -45,10 +46,13 @@ grasp constants and reach-above / descend / close / lift sequence):
 * Pick: retract, drive straight to a standoff 0.50–0.60 m from the cube along one of its faces
   (the face nearest a sampled heading; the straight path keeps the chassis clear of the other
   cubes on the floor and of the bin), reach above the cube with the gripper pitched 45° down,
-  descend, close, and lift the pinch point to 0.35 m (above the bin's 0.2 m rim).
+  descend, close, and lift the pinch point to 0.40 m (above the bin's 0.2 m rim).
 * Drop: with the arm held as it is, drive straight to the base pose that puts the pinch point
   above a sampled spot within 4 cm of the bin's centre, approaching from a sampled heading
-  within ±60° of the line from the base to the bin; open, wait, and back the base 0.3 m away.
+  within ±60° of the line from the base to the bin, at most 0.05 m and 0.08 rad per action
+  (at full speed the cube was flung out when the base braked); re-aim the base at the bin's
+  measured position (closed loop: the bin, 2 kg, can be nudged); open, wait, and back the base
+  0.3 m away.
 
 Parameter spaces are documented on each controller (``params_doc``). Differences from upstream's
 ``tidybot3d_tossing3D`` model (spec baselines.md): no toss (see above); the barrier is toppled
