@@ -66,7 +66,7 @@ def main() -> None:
             f"rad/s in the last action"
         )
     reach = best_range(top, args.height)
-    print(f"fastest pinch speed {top:.2f} m/s; best ballistic range from {args.height} m: {reach:.2f} m")
+    print(f"fastest pinch speed {top:.2f} m/s; best range from {args.height} m: {reach:.2f} m")
     env.close()
 
 
