@@ -46,7 +46,7 @@ def main() -> None:
     args = parser.parse_args()
     env = make_object_centric("kinder/Tossing3D-o1-v0")
     start = env.reset(seed=0)[0]
-    robot = env.objects["robot"]
+    robot = env.objects["robot"]  # type: ignore[attr-defined]
     top = 0.0
     for signs in itertools.product((-1.0, 1.0), repeat=3):
         state = start

@@ -335,7 +335,12 @@ class DropController(_TossController):
             self.drive(goal, arm, 1.0, 0.01, CARRY_SPEED),
             re_aim,
             release,
-            Segment(base=(*back, heading), arm=tuple(arm), arm_tol=0.05, base_tol=0.03),
+            Segment(
+                base=(float(back[0]), float(back[1]), heading),
+                arm=tuple(arm),
+                arm_tol=0.05,
+                base_tol=0.03,
+            ),
         ]
 
 
