@@ -8,9 +8,9 @@ the others (2 in o3, 10 in o12: 50–70 cm chairs) stand around it in x ∈ [1.5
 0.55 ≤ |y| ≤ 1.8.
 
 Measured (this env): the base is a stiff position servo (60 kg chassis, targets at most 0.1 m
-ahead), and driven into a chair it shoves the chair along the floor at almost its full speed;
-driving straight from the start to the goal's centre reached the goal within 10 actions on
-seeds 0–2 of o1, pushing the chair about 0.4 m. Making room is therefore part of driving: the
+ahead), and driven into a chair it shoves the chair along the floor at almost its full speed
+(``test_models_dynamo3d.py`` drives straight at the goal's centre on o3 and checks that the goal
+is reached and the chair on it was moved). Making room is therefore part of driving: the
 model has one operator whose skill pushes whatever stands in its way, and its samples choose
 the route and the stopping point (a route that jams chairs against each other stalls the
 drive, the skill fails and the planner resamples). Deliberate chair pushing (picking a chair

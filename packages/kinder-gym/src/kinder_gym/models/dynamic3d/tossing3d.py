@@ -59,7 +59,17 @@ Parameter spaces are documented on each controller (``params_doc``). Differences
 by a skill of its own rather than being treated as fixed; ``OnGround`` ignores the cube's
 orientation (the grasp approaches along a face of the measured yaw).
 
-Limits: the model needs the barrier movable (it is a movable 10 kg cuboid in this env and in
+Limits (measured): planner-free, each skill with up to 3 samples in a fixed order and no time
+budget (``python benchmarks/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 0-9``),
+Topple reached its prediction in 10 of 13 tries, Pick in 13 of 26 and Drop in 11 of 22 (the
+failures include cheap refusals of blocked straight base paths), and 5 of the 10 episodes were
+solved. What fails: descents that stall against the cube, cubes landing beside the bin, and the
+toppled barrier rolling back onto an edge when the base drives over it (it stands again; the
+planner sees the mismatch and resamples). A successful o2 plan is about 480 actions, each
+100 MuJoCo steps, and simulating them (with the failed samples) is almost all of the planning
+time (``mj_step`` was about 80 % of a cProfile'd o1 planning call), so BP's 60 s budget
+is sensitive to machine load (see ``benchmarks/results/bilevel_planning.md``). The model needs
+the barrier movable (it is a movable 10 kg cuboid in this env and in
 upstream 0.2.5); a task file with a fixed barrier and this bin placement would have no solution
 with the 11-D action. Imports kinder_garden3d (the ``[3d]`` extra).
 """
