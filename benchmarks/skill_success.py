@@ -9,10 +9,13 @@ fixed order, each with up to 3 parameter samples from its own sampler:
 * ``sweep``: OpenDrawer, PickWiper, then up to 6 Sweep passes, each aimed at the first screw not
   yet in the drawer (SweepIntoDrawer3D-o5); a pass counts when its target ends in the drawer and
   no screw is lost (a pass that loses one is undone, as the planner would reject it).
+* ``toss``: Topple, then Pick and Drop of every cube in turn (Tossing3D-oN); a step counts as
+  for ``shelf``.
 
 Usage:
     python benchmarks/skill_success.py shelf --env kinder/Shelf3D-o4-v0 --seeds 0-5
     python benchmarks/skill_success.py sweep --seeds 0-19 [--contacts pyramidal:1]
+    python benchmarks/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 0-9
 
 Prints one JSON object: successes and tries per skill, the actions of the successful runs, the
 screws in the drawer at the end (sweep) and the episodes whose env goal was reached.
@@ -41,12 +44,16 @@ def _seeds(text: str) -> list[int]:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("model", choices=("shelf", "sweep"))
+    parser.add_argument("model", choices=("shelf", "sweep", "toss"))
     parser.add_argument("--env", help="env id (default: Shelf3D-o1 or SweepIntoDrawer3D-o5)")
     parser.add_argument("--seeds", default="0-9")
     parser.add_argument("--contacts", help="cone:impratio, e.g. pyramidal:1 (default: the env's)")
     args = parser.parse_args(argv)
-    default = "kinder/Shelf3D-o1-v0" if args.model == "shelf" else "kinder/SweepIntoDrawer3D-o5-v0"
+    default = {
+        "shelf": "kinder/Shelf3D-o1-v0",
+        "sweep": "kinder/SweepIntoDrawer3D-o5-v0",
+        "toss": "kinder/Tossing3D-o1-v0",
+    }[args.model]
     kwargs: dict[str, Any] = {}
     if args.contacts:
         cone, impratio = args.contacts.split(":")
@@ -101,6 +108,13 @@ def main(argv: list[str] | None = None) -> None:
                 for name, skill in ((f"Pick(robot, {cube})", "Pick"),
                                     (f"Place(robot, {cube}, cupboard_1)", "Place")):  # fmt: skip
                     state = run(name, skill, state, rng) if state is not None else None
+        elif args.model == "toss":
+            steps_ = [("Topple(robot, cuboid_barrier)", "Topple")]
+            for cube in sorted(n for n in env.objects if n.startswith("cube_")):  # type: ignore[attr-defined]
+                steps_ += [(f"Pick(robot, {cube})", "Pick"),
+                           (f"Drop(robot, {cube}, bin_0, cuboid_barrier)", "Drop")]  # fmt: skip
+            for name, skill in steps_:
+                state = run(name, skill, state, rng) if state is not None else None
         else:
             for prefix in ("OpenDrawer", "PickWiper"):
                 name = next(n for n in ops if n.startswith(prefix))

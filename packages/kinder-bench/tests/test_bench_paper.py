@@ -91,9 +91,12 @@ def test_parse_paper_rejects_bad_files() -> None:
         parse_paper("a,b\n1,2\n")
 
 
-def test_agents_say_whether_they_can_run() -> None:
+def test_agents_say_whether_they_can_run(monkeypatch: pytest.MonkeyPatch) -> None:
+    from kinder_gym.models import MODELS
+
     bp = agent_class("bilevel_planning")
     assert bp.unavailable(bp.Args(), MOTION) is None
+    monkeypatch.delitem(MODELS, "Dynamo3D", raising=False)  # a family without a model
     why = unavailable_reason("bilevel_planning", "kinder/Dynamo3D-o1-v0")
     assert why is not None and why.startswith("needs") and "Dynamo3D" in why
     assert unavailable_reason("mpc", MOTION) is None

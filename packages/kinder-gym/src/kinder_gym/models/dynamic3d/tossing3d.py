@@ -1,0 +1,458 @@
+"""The Tossing3D planning model: get 2.5 cm cubes into a bin that stands beyond a barrier.
+
+The scene (task file ``Tossing3D.json``): a walled room (inner faces at x = −1.5, 4.0 and
+y = ±2.7); the robot starts at the origin facing +x; cubes lie at x ∈ [0.5, 0.75],
+|y| ≤ 0.25; a 3 cm × 5 m × 10 cm, 10 kg *movable* barrier stands across the room at x = 1.3
+(0.2 m gaps at its ends, narrower than the 0.4 m chassis); the 30 × 30 × 20 cm bin stands at
+x ∈ [2.6, 3.42], |y| ≤ 2.3. Goal: every cube's centre in the box ±0.1 m around the bin's centre,
+below its rim's mid-height (the env's ``on(cube_i, blocks_goal_region)``).
+
+Why this model does not toss (measured, this env): the bundled Tossing3D action is 11-D (as
+upstream kindergarden 0.2.5) and the arm tracks joint targets at most 0.1 rad ahead of the
+measured angles, so a joint turns at about 0.4–0.6 rad/s and the base drives at 0.87 m/s. The
+fastest pinch-point motion found (base driving at full speed while joints 2, 4 and 6 swing at
+full speed; ``python benchmarks/tossing_speed.py``) is 1.33 m/s, and a cube released at that
+speed from 1 m flies at most 0.63 m. The base stops 0.2 m short of the barrier (x ≈ 1.1), the
+pinch point reaches at most about 0.9 m ahead of it, so a released cube lands before x ≈ 2.6,
+while the bin's centre is at x ∈ [2.6, 3.42]: a toss from behind the barrier cannot reach the
+bin with this action space. (Upstream's tossing skill used its older 18-D action with unbounded
+joint-velocity targets, and upstream 0.2.5's o1 bin stands at x ∈ [1.48, 2.3].) What the env
+does allow, and the model uses, is the barrier's mobility: driven into it, the base topples it
+(it tips about its bottom edge and lies 3 cm high, and the base drives over it, both ways).
+The cube is then carried to the bin and released above it: a drop, closed-loop like every
+skill here (the controller observes the state every step, and the planner checks the abstract
+outcome of each skill and resamples when it differs).
+
+Concepts:
+
+* ``HandEmpty(robot)``: measured finger closure below 0.2.
+* ``Holding(robot, cube)``: the fingers are closed and the pinch point is within 4 cm of the
+  cube's centre, which is off the floor.
+* ``InBin(cube, bin)``: the env's own goal atom, so the goal atoms are exactly the env's goal.
+* ``OnGround(cube)``: not held, not in the bin, and the cube's centre below 5 cm.
+* ``Upright(barrier)`` (its local z axis within 45° of vertical) and ``Toppled(barrier)`` (more
+  than 70° from vertical); a barrier in between has neither.
+
+Operators: ``Topple(?robot, ?barrier)`` (pre HandEmpty, Upright; add Toppled; delete Upright),
+``Pick(?robot, ?cube)`` (pre HandEmpty, OnGround; add Holding; delete HandEmpty, OnGround) and
+``Drop(?robot, ?cube, ?bin, ?barrier)`` (pre Holding, Toppled; add HandEmpty, InBin; delete
+Holding). Goal: every cube InBin.
+
+Skills (segment following of :mod:`kinder_gym.models.dynamic3d.tidybot`; Pick reuses Shelf3D's
+grasp constants and reach-above / descend / close / lift sequence):
+
+* Topple: retract the arm, drive sideways to a sampled lane y (clear of the cubes), turn to
+  face +x, and drive straight through the barrier to 0.8 m beyond it.
+* Pick: retract, drive straight to a standoff 0.50–0.60 m from the cube along one of its faces
+  (the face nearest a sampled heading; the straight path keeps the chassis clear of the other
+  cubes on the floor and of the bin), reach above the cube with the gripper pitched 45° down,
+  descend, close, and lift the pinch point to 0.40 m (above the bin's 0.2 m rim).
+* Drop: with the arm held as it is, drive straight to the base pose that puts the pinch point
+  above a sampled spot within 4 cm of the bin's centre, approaching from a sampled heading
+  within ±60° of the line from the base to the bin, at most 0.05 m and 0.08 rad per action
+  (at full speed the cube was flung out when the base braked); re-aim the base at the bin's
+  measured position (closed loop: the bin, 2 kg, can be nudged); open, wait, and back the base
+  0.3 m away.
+
+Parameter spaces are documented on each controller (``params_doc``). Differences from upstream's
+``tidybot3d_tossing3D`` model (spec baselines.md): no toss (see above); the barrier is toppled
+by a skill of its own rather than being treated as fixed; ``OnGround`` ignores the cube's
+orientation (the grasp approaches along a face of the measured yaw).
+
+Limits (measured): planner-free, each skill with up to 3 samples in a fixed order and no time
+budget (``python benchmarks/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 0-9``),
+Topple reached its prediction in 10 of 13 tries, Pick in 13 of 26 and Drop in 11 of 22 (the
+failures include cheap refusals of blocked straight base paths), and 5 of the 10 episodes were
+solved. What fails: descents that stall against the cube, cubes landing beside the bin, and the
+toppled barrier rolling back onto an edge when the base drives over it (it stands again; the
+planner sees the mismatch and resamples). A successful o2 plan is about 480 actions, each
+100 MuJoCo steps, and simulating them (with the failed samples) is almost all of the planning
+time (``mj_step`` was about 80 % of a cProfile'd o1 planning call), so BP's 60 s budget
+is sensitive to machine load (see ``benchmarks/results/bilevel_planning.md``). The model needs
+the barrier movable (it is a movable 10 kg cuboid in this env and in
+upstream 0.2.5); a task file with a fixed barrier and this bin placement would have no solution
+with the 11-D action. Imports kinder_garden3d (the ``[3d]`` extra).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.dynamic3d.geometry import quat_to_matrix
+from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
+from kinder_gym.models.dynamic3d.shelf3d import (
+    CHASSIS_RADIUS,
+    CLOSED,
+    GRASP_Z,
+    GRIP_STEPS,
+    PITCH,
+    READY,
+    _segment_point_distance,
+    _segment_rect_distance,
+    _yaw_of,
+)
+from kinder_gym.models.dynamic3d.tidybot import (
+    HOME,
+    MAX_DELTA,
+    Dynamic3DController,
+    Segment,
+    SegmentSource,
+    arm_joints,
+    base_pose,
+    gripper_quat,
+    ik_near,
+    line_segments,
+    pinch_position,
+)
+from kinder_gym.motion_planning import FloatArray, wrap_angle
+from kinder_gym.operators import GroundOperator, LiftedOperator
+from kinder_gym.skills import Skill, SkillFailure
+
+GOAL_REGION = "blocks_goal_region"
+#: Height (m) of the pinch point while carrying and dropping (the bin's rim is at 0.2 m).
+CARRY_Z = 0.40
+#: Largest base step (m, rad per action) while carrying: at the env's full 0.1 the cube was
+#: flung out of the fingers when the base braked in front of the bin (seed 0).
+CARRY_SPEED = (0.05, 0.08)
+#: Inner faces of the room's walls (xmin, xmax, ymin, ymax), m.
+ROOM = (-1.5, 4.0, -2.7, 2.7)
+#: Distance (m) the chassis centre keeps from a floor cube while driving (the cubes are taller
+#: than the chassis' 2 cm ground clearance).
+CUBE_CLEARANCE = CHASSIS_RADIUS + 0.03
+#: Distance (m) beyond the barrier's initial line to which Topple drives.
+TOPPLE_OVERSHOOT = 0.8
+#: Barrier tilt thresholds (cosine of the angle between its local z axis and the vertical).
+UPRIGHT_COS = math.cos(math.radians(45.0))
+TOPPLED_COS = math.cos(math.radians(70.0))
+
+
+@dataclass(frozen=True)
+class TossContext:
+    """What the Tossing3D controllers need besides the state."""
+
+    env: ObjectCentricEnv
+    robot: Object
+    barrier: Object
+    bin: Object
+    cubes: tuple[Object, ...]
+
+
+def _xy(state: ObjectCentricState, obj: Object) -> FloatArray:
+    return np.array([state.get(obj, "x"), state.get(obj, "y")])
+
+
+def barrier_cos(state: ObjectCentricState, barrier: Object) -> float:
+    """Cosine of the angle between the barrier's local z axis and the world vertical."""
+    quat = np.array([state.get(barrier, f) for f in ("qw", "qx", "qy", "qz")])
+    return abs(float(quat_to_matrix(quat)[2, 2]))
+
+
+def _in_room(xy: FloatArray) -> bool:
+    x0, x1, y0, y1 = ROOM
+    m = CHASSIS_RADIUS + 0.02
+    return bool(x0 + m <= xy[0] <= x1 - m and y0 + m <= xy[1] <= y1 - m)
+
+
+def _path_clear(
+    ctx: TossContext,
+    state: ObjectCentricState,
+    a: FloatArray,
+    b: FloatArray,
+    skip: Object | None,
+) -> bool:
+    """Whether the chassis can drive straight from ``a`` to ``b`` (x, y): inside the room, clear
+    of the bin and of the cubes on the floor other than ``skip``."""
+    if not _in_room(b):
+        return False
+    yaw = _yaw_of(np.asarray(state[ctx.bin][3:7]))
+    axes = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+    half = np.array([state.get(ctx.bin, "bb_x"), state.get(ctx.bin, "bb_y")]) / 2
+    if _segment_rect_distance(a, b, _xy(state, ctx.bin), axes, half) < CHASSIS_RADIUS + 0.03:
+        return False
+    for cube in ctx.cubes:
+        if cube == skip or state.get(cube, "z") > 0.05:
+            continue
+        pos = _xy(state, cube)
+        if np.linalg.norm(pos - _xy(state, ctx.bin)) < 0.2:  # in the bin
+            continue
+        if _segment_point_distance(a, b, pos) < CUBE_CLEARANCE:
+            return False
+    return True
+
+
+class _TossController(Dynamic3DController):
+    def drive(
+        self,
+        goal: FloatArray,
+        arm: FloatArray,
+        gripper: float,
+        tol: float,
+        speed: tuple[float, float] = (MAX_DELTA, MAX_DELTA),
+    ) -> Segment:
+        """A segment driving the base to ``goal`` with the arm held at ``arm``, at most
+        ``speed`` (m, rad) per action."""
+        state = self.state
+        assert state is not None
+        start = base_pose(state, self.robot)
+        dist = float(np.linalg.norm(goal[:2] - start[:2]))
+        turn = abs(wrap_angle(float(goal[2] - start[2])))
+        return Segment(
+            base=(float(goal[0]), float(goal[1]), float(goal[2])),
+            arm=tuple(float(v) for v in arm),
+            gripper=gripper,
+            arm_tol=0.05,
+            base_tol=tol,
+            max_steps=math.ceil(max(dist / speed[0], turn / speed[1])) + 40,
+            base_speed=speed,
+        )
+
+    def retract(self, state: ObjectCentricState) -> list[SegmentSource]:
+        if np.abs(arm_joints(state, self.robot) - HOME).max() > 0.05:
+            return [Segment(arm=tuple(HOME), arm_tol=0.05, max_steps=80)]
+        return []
+
+
+class ToppleController(_TossController):
+    """Drive the base through the barrier so that it topples. Objects: ``(robot, barrier)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
+    params_doc = (
+        "(lane,): the base drives toward +x along y = 4.0·lane − 2.0 metres (lanes passing "
+        "within 0.31 m of a cube on the floor are refused)."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") < CLOSED
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        ctx: TossContext = self.context
+        robot, barrier = self.objects
+        lane = 4.0 * float(self.params[0]) - 2.0
+        b0 = base_pose(state, robot)
+        end_x = state.get(barrier, "x") + TOPPLE_OVERSHOOT
+        side = np.array([b0[0], lane])
+        if not _path_clear(ctx, state, b0[:2], side, None):
+            raise SkillFailure("Topple: the sideways move to the lane is blocked")
+        if not _path_clear(ctx, state, side, np.array([end_x, lane]), None):
+            raise SkillFailure("Topple: the lane is blocked")
+        return [
+            *self.retract(state),
+            self.drive(np.array([b0[0], lane, 0.0]), HOME, 0.0, 0.02),
+            self.drive(np.array([end_x, lane, 0.0]), HOME, 0.0, 0.03),
+        ]
+
+
+class PickController(_TossController):
+    """Pick a cube off the floor and lift it to the carry height. Objects: ``(robot, cube)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
+    params_doc = (
+        "(dist, heading): the base stops 0.50 + 0.10·dist metres short of the cube, approaching "
+        "along the cube face nearest to the world heading (2·heading − 1)·π radians."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") < CLOSED
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        ctx: TossContext = self.context
+        robot, cube = self.objects
+        dist = 0.50 + 0.10 * float(self.params[0])
+        wanted = (2.0 * float(self.params[1]) - 1.0) * math.pi
+        c = _xy(state, cube)
+        cube_yaw = _yaw_of(np.asarray(state[cube][3:7]))
+        k = round((wanted - cube_yaw) / (math.pi / 2))
+        heading = wrap_angle(cube_yaw + k * math.pi / 2)
+        direction = np.array([math.cos(heading), math.sin(heading)])
+        goal = np.array([*(c - dist * direction), heading])
+        if not _path_clear(ctx, state, base_pose(state, robot)[:2], goal[:2], cube):
+            raise SkillFailure("Pick: the straight base path is blocked")
+        quat = gripper_quat(heading, PITCH)
+        grasp = np.array([*(c - 0.005 * direction), GRASP_Z])
+        above = np.array([*(c - 0.01 * direction), 0.15])
+
+        def reach_above(s: ObjectCentricState) -> list[Segment]:
+            q = ik_near(above, quat, base_pose(s, robot), READY)
+            return [Segment(arm=tuple(q), arm_tol=0.01, max_steps=80)]
+
+        def descend(s: ObjectCentricState) -> list[Segment]:
+            return line_segments(s, robot, grasp, heading, PITCH, 0.0)
+
+        def lift(s: ObjectCentricState) -> list[Segment]:
+            here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
+            target = np.array([here[0], here[1], CARRY_Z])
+            return line_segments(s, robot, target, heading, PITCH, 1.0, spacing=0.06)
+
+        close = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
+        return [
+            *self.retract(state),
+            self.drive(goal, HOME, 0.0, 0.01),
+            reach_above,
+            descend,
+            close,
+            lift,
+        ]
+
+
+class DropController(_TossController):
+    """Carry the held cube over the bin and release it. Objects: ``(robot, cube, bin, barrier)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
+    params_doc = (
+        "(angle, u, v): the base approaches along the heading (angle − 0.5)·2π/3 radians off "
+        "the line from the base to the bin's centre; the hand opens with the pinch point "
+        "0.08·(u − 0.5), 0.08·(v − 0.5) metres (world x, y) from the bin's centre."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") >= CLOSED
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        ctx: TossContext = self.context
+        robot, cube = self.objects[:2]
+        b0 = base_pose(state, robot)
+        arm = arm_joints(state, robot)
+        centre = _xy(state, ctx.bin)
+        to_bin = centre - b0[:2]
+        heading = math.atan2(to_bin[1], to_bin[0]) + (float(self.params[0]) - 0.5) * 2 * math.pi / 3
+        spot = centre + 0.08 * (np.asarray(self.params[1:3]) - 0.5)
+        # The arm is held fixed: the pinch point keeps its offset in the base frame.
+        offset = pinch_position(np.array([0.0, 0.0, heading]), arm)[:2]
+        goal = np.array([*(spot - offset), heading])
+        if not _path_clear(ctx, state, b0[:2], goal[:2], cube):
+            raise SkillFailure("Drop: the straight base path to the bin is blocked")
+        back = goal[:2] - 0.3 * np.array([math.cos(heading), math.sin(heading)])
+        release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS + 4)
+
+        def re_aim(s: ObjectCentricState) -> list[Segment]:
+            # Closed loop on the bin: it may have been nudged, and the base stops within 1 cm.
+            here = pinch_position(base_pose(s, robot), arm_joints(s, robot))[:2]
+            error = _xy(s, ctx.bin) + (spot - centre) - here
+            if float(np.linalg.norm(error)) < 0.01:
+                return []
+            target = base_pose(s, robot)[:2] + error
+            return [self.drive(np.array([*target, heading]), arm, 1.0, 0.005, CARRY_SPEED)]
+
+        return [
+            self.drive(goal, arm, 1.0, 0.01, CARRY_SPEED),
+            re_aim,
+            release,
+            Segment(
+                base=(float(back[0]), float(back[1]), heading),
+                arm=tuple(arm),
+                arm_tol=0.05,
+                base_tol=0.03,
+            ),
+        ]
+
+
+def create_model(env: ObjectCentricEnv) -> PlanningModel:
+    """The Tossing3D planning model (any number of cubes)."""
+    objects: dict[str, Object] = env.objects  # type: ignore[attr-defined]
+    robot_obj = objects["robot"]
+    barrier = objects["cuboid_barrier"]
+    bin_obj = objects["bin_0"]
+    cubes = tuple(sorted(o for n, o in objects.items() if n.startswith("cube_")))
+    ctx = TossContext(env, robot_obj, barrier, bin_obj, cubes)
+
+    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
+    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    OnGround = Predicate("OnGround", (MOVABLE_TYPE,))
+    InBin = Predicate("InBin", (MOVABLE_TYPE, MOVABLE_TYPE))
+    Upright = Predicate("Upright", (MOVABLE_TYPE,))
+    Toppled = Predicate("Toppled", (MOVABLE_TYPE,))
+
+    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        atoms: set[GroundAtom] = set()
+        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
+        if not closed:
+            atoms.add(HandEmpty.ground([robot_obj]))
+        cos = barrier_cos(state, barrier)
+        if cos >= UPRIGHT_COS:
+            atoms.add(Upright.ground([barrier]))
+        elif cos <= TOPPLED_COS:
+            atoms.add(Toppled.ground([barrier]))
+        pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))
+        on = env.goal_atoms(state)  # type: ignore[attr-defined]
+        for c in cubes:
+            pos = np.asarray(state[c][:3])
+            if closed and pos[2] > 0.02 and np.linalg.norm(pos - pinch) < 0.04:
+                atoms.add(Holding.ground([robot_obj, c]))
+            elif on[f"on({c.name}, {GOAL_REGION})"]:
+                atoms.add(InBin.ground([c, bin_obj]))
+            elif pos[2] < 0.05:
+                atoms.add(OnGround.ground([c]))
+        return frozenset(atoms)
+
+    r = Variable("?robot", ROBOT_TYPE)
+    c = Variable("?cube", MOVABLE_TYPE)
+    b = Variable("?bin", MOVABLE_TYPE)
+    w = Variable("?barrier", MOVABLE_TYPE)
+    topple = LiftedOperator(
+        "Topple",
+        (r, w),
+        frozenset({HandEmpty.lift([r]), Upright.lift([w])}),
+        frozenset({Toppled.lift([w])}),
+        frozenset({Upright.lift([w])}),
+    )
+    pick = LiftedOperator(
+        "Pick",
+        (r, c),
+        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
+        frozenset({Holding.lift([r, c])}),
+        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
+    )
+    drop = LiftedOperator(
+        "Drop",
+        (r, c, b, w),
+        frozenset({Holding.lift([r, c]), Toppled.lift([w])}),
+        frozenset({HandEmpty.lift([r]), InBin.lift([c, b])}),
+        frozenset({Holding.lift([r, c])}),
+    )
+
+    def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
+        """Only the bin, the barrier and the cubes in their operators' roles."""
+        del state
+        if op.parent is topple:
+            return op.objects[1] == barrier
+        if op.parent is pick:
+            return op.objects[1] in cubes
+        return op.objects[1] in cubes and op.objects[2:] == (bin_obj, barrier)
+
+    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        del state
+        return frozenset(InBin.ground([c, bin_obj]) for c in cubes)
+
+    return PlanningModel(
+        name="tossing3d",
+        env=env,
+        types=(ROBOT_TYPE, MOVABLE_TYPE),
+        predicates=(HandEmpty, Holding, OnGround, InBin, Upright, Toppled),
+        skills=(
+            Skill(topple, ToppleController, ctx),
+            Skill(pick, PickController, ctx),
+            Skill(drop, DropController, ctx),
+        ),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        objects_fn=lambda state: [robot_obj, barrier, bin_obj, *cubes],
+        max_skill_horizon=400,
+        max_episode_steps=env.spec.max_episode_steps if env.spec is not None else None,
+        operator_filter=keep,
+    )
+
+
+__all__: Sequence[str] = [
+    "DropController",
+    "PickController",
+    "ToppleController",
+    "create_model",
+]
