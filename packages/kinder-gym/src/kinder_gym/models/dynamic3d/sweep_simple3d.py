@@ -63,6 +63,7 @@ from kinder_gym.models.dynamic3d.shelf3d import (
     _segment_point_distance,
     _segment_rect_distance,
     _ShelfController,
+    _yaw_of,
 )
 from kinder_gym.models.dynamic3d.tidybot import (
     HOME,
@@ -129,11 +130,6 @@ def _yaw_axes(yaw: float) -> FloatArray:
     return np.array([[c, -s], [s, c]])
 
 
-def _quat_yaw(q: Sequence[float]) -> float:
-    w, x, y, z = (float(v) for v in q)
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-
-
 def _base_ok(p: FloatArray, clearance: float = PASS_CLEARANCE) -> bool:
     """Whether a disc of radius ``clearance`` centred at ``p`` (the chassis, or the hand) is
     clear of the island and within the room."""
@@ -164,7 +160,7 @@ def _path_ok(
             return False
     wf = state[ctx.wiper]
     centre = np.asarray(wf[:2], dtype=np.float64)
-    axes = _yaw_axes(_quat_yaw(wf[3:7]))
+    axes = _yaw_axes(_yaw_of(np.asarray(wf[3:7])))
     if _segment_rect_distance(a, b, centre, axes, WIPER_HALF) < PASS_CLEARANCE:
         return False
     for blk in ctx.blocks:
@@ -220,9 +216,14 @@ class _Controller(_ShelfController):
         return params
 
     def drive_route(
-        self, state: ObjectCentricState, goal: FloatArray, via_x: float, arm: FloatArray,
-        gripper: float, skip: Object | None,
-    ) -> list[SegmentSource]:  # fmt: skip
+        self,
+        state: ObjectCentricState,
+        goal: FloatArray,
+        via_x: float,
+        arm: FloatArray,
+        gripper: float,
+        skip: Object | None,
+    ) -> list[SegmentSource]:
         """Turn in place to the goal heading, then drive the route's legs."""
         ctx: SweepSimpleContext = self.context
         b0 = base_pose(state, self.robot)
@@ -238,9 +239,16 @@ class _Controller(_ShelfController):
                 raise SkillFailure("the hand would hit the island or a counter while turning")
         points = _route(ctx, state, b0[:2], goal[:2], via_x, skip, hand)
         segs: list[SegmentSource] = [
-            Segment(base=(float(b0[0]), float(b0[1]), heading), arm=tuple(float(v) for v in arm),
-                    gripper=gripper, arm_tol=0.05, base_tol=0.03, max_steps=120,
-                    base_speed=CARRY_SPEED if gripper > 0.5 else (MAX_DELTA, MAX_DELTA))]  # fmt: skip
+            Segment(
+                base=(float(b0[0]), float(b0[1]), heading),
+                arm=tuple(float(v) for v in arm),
+                gripper=gripper,
+                arm_tol=0.05,
+                base_tol=0.03,
+                max_steps=120,
+                base_speed=CARRY_SPEED if gripper > 0.5 else (MAX_DELTA, MAX_DELTA),
+            )
+        ]
         for k, p in enumerate(points):
             last = k == len(points) - 1
 
@@ -274,12 +282,12 @@ class PickController(_Controller):
     ) -> tuple[FloatArray, float, list[SegmentSource]]:
         """The base goal, the heading and the drive segments for ``params`` (SkillFailure when
         the standoff or the route is blocked)."""
-        robot, block = self.objects
+        block = self.objects[1]
         if state.get(block, "z") > 0.05:
             raise SkillFailure(f"Pick: {block.name} is not on the floor")
         dist = 0.50 + 0.10 * float(params[0])
         c = np.array([state.get(block, "x"), state.get(block, "y")])
-        yaw = _quat_yaw(state[block][3:7])
+        yaw = _yaw_of(np.asarray(state[block][3:7]))
         k = round((2 * math.pi * float(params[1]) - yaw) / (math.pi / 2))
         heading = yaw + k * math.pi / 2
         direction = np.array([math.cos(heading), math.sin(heading)])
@@ -292,7 +300,7 @@ class PickController(_Controller):
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         robot, block = self.objects
         c = np.array([state.get(block, "x"), state.get(block, "y")])
-        goal, heading, route = self.geometry(state, np.asarray(self.params))
+        heading, route = self.geometry(state, np.asarray(self.params))[1:]
         direction = np.array([math.cos(heading), math.sin(heading)])
         quat = gripper_quat(heading, PITCH)
         grasp = np.array([*(c - 0.003 * direction), GRASP_Z])
