@@ -34,8 +34,19 @@ This model carries the blocks one by one instead, because the wiper sweeps of
 :mod:`kinder_gym.models.dynamic3d.sweep_into_drawer3d` push objects ~20 cm over a table edge,
 whereas here every block must travel ~1.3 m across the floor around the island's end, a
 closed-loop pushing skill that was not built in the time this model had. The wiper is only an
-obstacle. Consequence: a pick and a place take about 150–250 actions, so only the small variants
-fit the 1000-step episode limit (o5 at best; o10 and o50 cannot be solved this way).
+obstacle. Consequence: a pick and a place take about 150–275 actions (seed 0–4 episodes of o1),
+so one block fits the 1000-step episode limit but five barely do, and 10 or 50 cannot: BP
+solves o1 and not the larger variants (``benchmarks/results/bilevel_planning.md``). A wiper
+sweep that moves many blocks per pass is what the larger variants need.
+
+Findings that shaped the skills: carried at the env's full base speed (0.1 m, 0.1 rad per
+action) the 1 cm block was flung out of the fingers on most carries, hence ``CARRY_SPEED``;
+the straight drive from the robot's start to the blocks crosses the wiper, and the gaps beside
+it (about 0.5 m) only pass a chassis turned to its final heading first; an arm held out while
+the base drove along the cooking counter knocked the block out on the counter, hence the hand
+clearance checked along every route. Pick and Place draw their parameters again (up to 200
+times, geometry only) while the standoff or the route is blocked, because the planner's three
+samples per step were otherwise mostly blocked routes.
 
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
