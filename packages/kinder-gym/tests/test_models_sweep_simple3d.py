@@ -14,7 +14,6 @@ from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_pos
 from kinder_gym.skills import SkillFailure, execute_skill
 
 O1 = "kinder/SweepSimple3D-o1-sweep_the_blocks_to_the_left_side_of_the_kitchen_island-v0"
-O5 = "kinder/SweepSimple3D-o5-sweep_the_blocks_to_the_left_side_of_the_kitchen_island-v0"
 
 
 @pytest.fixture(scope="module")
@@ -102,13 +101,21 @@ def test_planner_solves_a_seeded_instance(env) -> None:
     assert solved
 
 
-@pytest.mark.slow
-def test_planner_solves_o5() -> None:
-    from kinder_bench.baselines.bilevel_planning import plan_reaches_goal
-
-    e = make_object_centric(O5)
+@pytest.mark.parametrize(
+    ("task", "box"),
+    [
+        ("left_side_of_the_kitchen_island", (0.125, 1.0, 0.875, 1.375)),
+        ("right_side_of_the_kitchen_island", (0.125, -1.375, 0.875, -1.0)),
+        ("right_side_of_the_kitchen_counter", (2.245, -1.375, 2.995, -1.0)),
+    ],
+)
+def test_every_goal_area_is_read_from_the_task(task, box) -> None:
+    e = make_object_centric(f"kinder/SweepSimple3D-o50-sweep_the_blocks_to_the_{task}-v0")
     try:
-        solved, _ = plan_reaches_goal(e, seed=0)
+        model = create_model(e)
+        state = e.reset(seed=0)[0]
+        assert len(model.goal(state)) == 51  # 50 blocks InArea, and HandEmpty
+        ctx = model.skills[0].context
+        assert ctx.box == pytest.approx(box)
     finally:
         e.close()
-    assert solved
