@@ -111,19 +111,19 @@ class RearrangeContext:
     regions: dict[str, str]
 
 
-def _footprint_radius(state: ObjectCentricState, obj: Object) -> float:
+def footprint_radius(state: ObjectCentricState, obj: Object) -> float:
     """Radius (m) of a circle around the object's footprint."""
     return 0.5 * math.hypot(state.get(obj, "bb_x"), state.get(obj, "bb_y"))
 
 
-def _gripper_yaw(base: FloatArray, arm: FloatArray) -> float:
+def top_down_yaw(base: FloatArray, arm: FloatArray) -> float:
     """Heading of a top-down gripper (the one :func:`gripper_quat` takes)."""
     tf = forward_kinematics((float(base[0]), float(base[1]), float(base[2])), arm)["pinch_site"]
     across = tf[:3, 1]  # the fingers close along the gripper's y axis
     return math.atan2(float(across[1]), float(across[0])) - math.pi / 2
 
 
-def _grasp_yaws(state: ObjectCentricState, obj: Object, heading: float) -> list[float]:
+def grasp_yaws(state: ObjectCentricState, obj: Object, heading: float) -> list[float]:
     """Gripper headings closing across the object's faces, nearest to ``heading`` first."""
     yaw = quat_yaw(np.asarray(state[obj][3:7]))
     cands = [wrap_angle(yaw + k * math.pi / 2) for k in range(4)]
@@ -154,7 +154,7 @@ def _spot_free(
     ctx: RearrangeContext, state: ObjectCentricState, obj: Object, spot: FloatArray
 ) -> bool:
     """Whether the object's footprint at ``spot`` keeps clear of the bowl and the others."""
-    r = _footprint_radius(state, obj)
+    r = footprint_radius(state, obj)
     bowl = np.array([state.get(ctx.bowl, "x"), state.get(ctx.bowl, "y")])
     if np.linalg.norm(spot - bowl) < BOWL_RADIUS + r + MARGIN:
         return False
@@ -162,27 +162,31 @@ def _spot_free(
         if other == obj:
             continue
         p = np.array([state.get(other, "x"), state.get(other, "y")])
-        if np.linalg.norm(spot - p) < _footprint_radius(state, other) + r + MARGIN:
+        if np.linalg.norm(spot - p) < footprint_radius(state, other) + r + MARGIN:
             return False
     return True
 
 
-class _TopDownController(Dynamic3DController):
-    """Top-down moves of the pinch point with the base fixed."""
+class TopDownController(Dynamic3DController):
+    """Top-down moves of the pinch point with the base fixed (shared with SortClutteredBlocks3D).
 
-    def _to_travel(self, state: ObjectCentricState, xy: FloatArray, yaw: float) -> Segment:
+    ``travel_z`` is the height (m) of the pinch point between objects; ``grip`` the gripper
+    command while moving there (set by :meth:`plan` of a subclass)."""
+
+    travel_z = TRAVEL_Z
+    grip = 0.0
+
+    def to_travel(self, state: ObjectCentricState, xy: FloatArray, yaw: float) -> Segment:
         """One joint-space move to the pinch point above ``xy`` at the travel height."""
         robot = self.robot
         q = arm_joints(state, robot)
         near = READY if np.abs(q - HOME).max() < 0.05 else q
-        target = np.array([float(xy[0]), float(xy[1]), TRAVEL_Z])
+        target = np.array([float(xy[0]), float(xy[1]), self.travel_z])
         sol = ik_near(target, gripper_quat(yaw, DOWN), base_pose(state, robot), near)
-        return Segment(arm=tuple(sol), gripper=self._grip, arm_tol=0.01, max_steps=80)
-
-    _grip = 0.0
+        return Segment(arm=tuple(sol), gripper=self.grip, arm_tol=0.01, max_steps=80)
 
 
-class PickController(_TopDownController):
+class PickController(TopDownController):
     """Pick an object up from the island top. Objects: ``(robot, obj)``."""
 
     params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
@@ -193,15 +197,15 @@ class PickController(_TopDownController):
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         robot, obj = self.objects
-        self._grip = 0.0
+        self.grip = 0.0
         c = np.array([state.get(obj, f) for f in ("x", "y", "z")])
         top = float(c[2]) + 0.5 * state.get(obj, "bb_z")
         grasp_z = top - 0.025 - 0.015 * float(self.params[0])
         base = base_pose(state, robot)
         above = None
-        for yaw in _grasp_yaws(state, obj, float(base[2])):
+        for yaw in grasp_yaws(state, obj, float(base[2])):
             try:
-                above = self._to_travel(state, c[:2], yaw)
+                above = self.to_travel(state, c[:2], yaw)
             except SkillFailure:
                 continue
             break
@@ -214,7 +218,7 @@ class PickController(_TopDownController):
 
         def lift(s: ObjectCentricState) -> list[Segment]:
             p = pinch_position(base_pose(s, robot), arm_joints(s, robot))
-            target = np.array([p[0], p[1], TRAVEL_Z])
+            target = np.array([p[0], p[1], self.travel_z])
             return line_segments(
                 s, robot, target, heading, DOWN, 1.0, spacing=0.05, final_tol=LOADED_TOL
             )
@@ -223,7 +227,7 @@ class PickController(_TopDownController):
         return [above, descend, close, lift]
 
 
-class PlaceController(_TopDownController):
+class PlaceController(TopDownController):
     """Put the held object down on a spot of its goal region. Objects: ``(robot, obj)``."""
 
     params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
@@ -249,14 +253,14 @@ class PlaceController(_TopDownController):
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: RearrangeContext = self.context
         robot, obj = self.objects
-        self._grip = 1.0
+        self.grip = 1.0
         spot = _spot(ctx, state, obj, self.params)
         if not _spot_free(ctx, state, obj, spot):
             raise SkillFailure("Place: the spot overlaps the bowl or another object")
         base = base_pose(state, robot)
         arm = arm_joints(state, robot)
         pinch = pinch_position(base, arm)
-        yaw = _gripper_yaw(base, arm)
+        yaw = top_down_yaw(base, arm)
         c = np.array([state.get(obj, f) for f in ("x", "y", "z")])
         offset = c - pinch  # the held object relative to the pinch point
         bottom = float(c[2]) - 0.5 * state.get(obj, "bb_z")
@@ -264,7 +268,7 @@ class PlaceController(_TopDownController):
         target_xy = spot - offset[:2]
 
         def carry(s: ObjectCentricState) -> list[Segment]:
-            goal = np.array([*target_xy, TRAVEL_Z])
+            goal = np.array([*target_xy, self.travel_z])
             return line_segments(s, robot, goal, yaw, DOWN, 1.0, spacing=0.05, final_tol=LOADED_TOL)
 
         def lower(s: ObjectCentricState) -> list[Segment]:
@@ -272,7 +276,7 @@ class PlaceController(_TopDownController):
             return line_segments(s, robot, goal, yaw, DOWN, 1.0, final_tol=LOADED_TOL)
 
         def rise(s: ObjectCentricState) -> list[Segment]:
-            goal = np.array([*target_xy, TRAVEL_Z])
+            goal = np.array([*target_xy, self.travel_z])
             return line_segments(s, robot, goal, yaw, DOWN, 0.0, spacing=0.05, final_tol=LOADED_TOL)
 
         release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
@@ -350,4 +354,12 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     )
 
 
-__all__: Sequence[str] = ["PickController", "PlaceController", "create_model"]
+__all__: Sequence[str] = [
+    "PickController",
+    "PlaceController",
+    "TopDownController",
+    "create_model",
+    "footprint_radius",
+    "grasp_yaws",
+    "top_down_yaw",
+]
