@@ -13,7 +13,10 @@ from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_pos
 from kinder_gym.skills import SkillFailure, execute_skill
 
 O1 = "kinder/Rearrange3D-o1-put_the_boxed_drink_behind_the_bowl-v0"
-O2 = "kinder/Rearrange3D-o2-put_the_can_on_the_left_and_the_boxed_drink_on_the_right_side_of_the_bowl-v0"
+O2 = (
+    "kinder/Rearrange3D-o2-put_the_can_on_the_left_and_the_boxed_drink_on_the_right_side_of_the_bowl"
+    "-v0"
+)
 
 
 @pytest.fixture(scope="module")
