@@ -18,9 +18,10 @@ Operators: ``Pick(?robot, ?obj)`` (pre HandEmpty, Loose; add Holding; delete Han
 and ``Place(?robot, ?obj)`` (pre Holding; add HandEmpty, Placed; delete Holding). Goal: every
 goal object Placed, and HandEmpty.
 
-Skills (targets tracked closed-loop by :mod:`kinder_gym.models.dynamic3d.tidybot`; the base
-stays where the episode put it, 0.3–0.5 m in front of the island, from where the whole reachable
-part of the island top is in the arm's top-down workspace):
+Skills (targets tracked closed-loop by :mod:`kinder_gym.models.dynamic3d.tidybot`): the base
+keeps its heading and its distance from the island (it starts 0.3–0.5 m in front of it); when
+a pose is out of the arm's top-down reach, the skill first drives it sideways by the smallest of
+0.1–0.5 m (steps of 0.1 m) that brings every pose of the skill into reach.
 
 * Pick: move the pinch point above the object at the travel height (top-down gripper, fingers
   closing across one of the drink's faces, the one whose heading is nearest the base's; any
@@ -40,10 +41,9 @@ redrawn by the sampler (up to 100 times) and rejected by the skill.
 Differences from upstream: upstream's Rearrange3D has no bilevel-planning model (baselines.md
 lists none), so this one is new; it uses the project's robot controller and IK as Shelf3D.
 
-Limits: the base does not move, so an object outside the arm's top-down workspace from the
-start pose cannot be picked (none of the task files' initial regions place one there); the
-objects are assumed upright (a tipped drink is grasped around its footprint as if upright and
-usually fails, after which the planner resamples). Imports kinder_garden3d (the ``[3d]`` extra).
+Limits: the objects are assumed upright (a tipped drink is grasped around its footprint as if
+upright and usually fails, after which the planner resamples). Imports kinder_garden3d (the
+``[3d]`` extra).
 """
 
 from __future__ import annotations
@@ -69,6 +69,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     SegmentSource,
     arm_joints,
     base_pose,
+    drive_segment,
     gripper_quat,
     ik_near,
     line_segments,
@@ -97,6 +98,8 @@ HOLD_RADIUS = 0.08
 #: Largest arm joint error (rad) at which a move ending with a held object (or at the travel
 #: height) counts as reached: the can's weight leaves about 8 mrad of steady-state error.
 LOADED_TOL = 0.012
+#: Sideways shifts (m) of the base tried, smallest first, when a pose is out of reach.
+BASE_SHIFTS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
 
 
 @dataclass(frozen=True)
@@ -185,6 +188,36 @@ class TopDownController(Dynamic3DController):
         sol = ik_near(target, gripper_quat(yaw, DOWN), base_pose(state, robot), near)
         return Segment(arm=tuple(sol), gripper=self.grip, arm_tol=0.01, max_steps=80)
 
+    def base_for(
+        self, state: ObjectCentricState, points: Sequence[FloatArray], yaws: Sequence[float]
+    ) -> tuple[FloatArray, float]:
+        """A base pose from which the pinch point reaches every point top-down with one of
+        ``yaws`` (tried in order), and that yaw: the current pose, else the current pose
+        shifted sideways (along the base's own y axis, heading kept) towards the points by
+        the first of :data:`BASE_SHIFTS` that works. SkillFailure when none does."""
+        base = base_pose(state, self.robot)
+        lateral = np.array([-math.sin(base[2]), math.cos(base[2])])
+        side = 1.0 if float((np.mean(points, axis=0)[:2] - base[:2]) @ lateral) >= 0 else -1.0
+        for shift in BASE_SHIFTS:
+            b = base.copy()
+            b[:2] += side * shift * lateral
+            for yaw in yaws:
+                try:
+                    for p in points:
+                        ik_near(p, gripper_quat(yaw, DOWN), b, READY)
+                except SkillFailure:
+                    continue
+                return b, yaw
+        raise SkillFailure(f"{type(self).__name__}: out of top-down reach from beside the base")
+
+    def shift_base(self, state: ObjectCentricState, goal: FloatArray) -> list[SegmentSource]:
+        """The drive to ``goal`` (the arm and gripper held), or nothing when the base is there."""
+        if np.abs(goal - base_pose(state, self.robot)).max() < 1e-9:
+            return []
+        arm = arm_joints(state, self.robot)
+        robot = self.robot
+        return [lambda s: [drive_segment(s, robot, goal, arm, self.grip, 0.01)]]
+
 
 class PickController(TopDownController):
     """Pick an object up from the island top. Objects: ``(robot, obj)``."""
@@ -202,16 +235,8 @@ class PickController(TopDownController):
         top = float(c[2]) + 0.5 * state.get(obj, "bb_z")
         grasp_z = top - 0.025 - 0.015 * float(self.params[0])
         base = base_pose(state, robot)
-        above = None
-        for yaw in grasp_yaws(state, obj, float(base[2])):
-            try:
-                above = self.to_travel(state, c[:2], yaw)
-            except SkillFailure:
-                continue
-            break
-        if above is None:
-            raise SkillFailure(f"Pick: {obj.name} is out of top-down reach")
-        heading = yaw
+        points = [np.array([*c[:2], self.travel_z]), np.array([*c[:2], grasp_z])]
+        goal, heading = self.base_for(state, points, grasp_yaws(state, obj, float(base[2])))
 
         def descend(s: ObjectCentricState) -> list[Segment]:
             return line_segments(s, robot, np.array([*c[:2], grasp_z]), heading, DOWN, 0.0)
@@ -224,7 +249,11 @@ class PickController(TopDownController):
             )
 
         close = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        return [above, descend, close, lift]
+
+        def above(s: ObjectCentricState) -> list[Segment]:
+            return [self.to_travel(s, c[:2], heading)]
+
+        return [*self.shift_base(state, goal), above, descend, close, lift]
 
 
 class PlaceController(TopDownController):
@@ -266,6 +295,8 @@ class PlaceController(TopDownController):
         bottom = float(c[2]) - 0.5 * state.get(obj, "bb_z")
         release_z = float(pinch[2]) - (bottom - TABLE_Z - RELEASE_GAP)
         target_xy = spot - offset[:2]
+        points = [np.array([*target_xy, self.travel_z]), np.array([*target_xy, release_z])]
+        goal, _ = self.base_for(state, points, [yaw])
 
         def carry(s: ObjectCentricState) -> list[Segment]:
             goal = np.array([*target_xy, self.travel_z])
@@ -280,7 +311,7 @@ class PlaceController(TopDownController):
             return line_segments(s, robot, goal, yaw, DOWN, 0.0, spacing=0.05, final_tol=LOADED_TOL)
 
         release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        return [carry, lower, release, rise]
+        return [*self.shift_base(state, goal), carry, lower, release, rise]
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
