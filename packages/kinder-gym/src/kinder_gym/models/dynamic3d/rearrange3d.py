@@ -134,7 +134,10 @@ def grasp_yaws(state: ObjectCentricState, obj: Object, heading: float) -> list[f
 
 
 def _spot(
-    ctx: RearrangeContext, state: ObjectCentricState, obj: Object, params: Sequence[float]
+    ctx: RearrangeContext,
+    state: ObjectCentricState,
+    obj: Object,
+    params: Sequence[float] | FloatArray,
 ) -> FloatArray:
     """The (x, y) spot of the object's centre selected by Place's parameters."""
     env = ctx.env
