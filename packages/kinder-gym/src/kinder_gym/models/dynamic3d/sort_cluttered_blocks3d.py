@@ -26,7 +26,10 @@ moves are Rearrange3D's :class:`~kinder_gym.models.dynamic3d.rearrange3d.TopDown
   container are within the arm's top-down workspace. Then move the pinch point above the cube
   with the fingers across one of its faces and opened to 3.4 cm only (wide open, they would
   sweep the cube's neighbours in), descend straight until the pad tips are just above the
-  table, close and lift straight up.
+  table, close and lift straight up. The pinch point is shifted up to 5 mm off the cube's
+  centre along the pads' width when that keeps another cube's centre out from between the
+  pads; a pick with no such shift fails at once (the planner then tries another heading or
+  another order).
 * Drop: carry the cube straight above a sampled spot of its goal region, lower it until its
   bottom is 1 cm above the container's floor, open the fingers to 4.7 cm (inside a bin's
   9 cm), rise, and open fully.
@@ -101,6 +104,9 @@ PRE_GRASP = 0.8
 #: Half-width (m) of a pad across the closing direction, and its thickness along it.
 PAD_HALF_WIDTH = 0.011
 PAD_THICKNESS = 0.009
+#: Offsets (m) of the pinch point from a cube's centre along the pads' width, tried in order
+#: to keep a neighbour out of the grasp; the 1 cm cube stays within the 2.2 cm wide pads.
+GRASP_SHIFTS = (0.0, 0.0025, -0.0025, 0.005, -0.005)
 #: Gripper command releasing a cube inside a container: the pads 4.7 cm apart.
 RELEASE = 0.45
 #: Pad tips reach 2.5 cm beyond the pinch point; they stop this high (m) above the table.
@@ -139,25 +145,38 @@ class _Table:
         self.corner_x = self.centre[0] + length / 2 + 0.2 + CORNER_CLEARANCE
 
 
-def _pads_clear(ctx: SortContext, state: ObjectCentricState, cube: Object, yaw: float) -> bool:
+def _pads_clear(
+    ctx: SortContext, state: ObjectCentricState, cube: Object, yaw: float, shift: float = 0.0
+) -> bool:
     """Whether the pads, opened to the pre-grasp width around ``cube`` at gripper heading
-    ``yaw``, close on ``cube`` alone: no other cube's centre lies between them. (A neighbour
-    partly under a pad is pushed aside in most seeded trials; when it is not, the prediction
-    fails and the planner resamples.)"""
-    c = np.array([state.get(cube, "x"), state.get(cube, "y")])
+    ``yaw`` with the pinch point ``shift`` metres off the cube's centre along the pads' width,
+    close on ``cube`` alone: no other cube's centre lies between them. (A neighbour partly
+    under a pad is pushed aside in most seeded trials; when it is not, the prediction fails
+    and the planner resamples.)"""
     across = np.array([-math.sin(yaw), math.cos(yaw)])  # the closing direction
     along = np.array([math.cos(yaw), math.sin(yaw)])
+    pinch = np.array([state.get(cube, "x"), state.get(cube, "y")]) + shift * along
     inner = 0.5 * 0.085 * (1.0 - PRE_GRASP)
     for name in ctx.regions:
         other = ctx.env.objects[name]  # type: ignore[attr-defined]
         if other == cube:
             continue
-        d = np.array([state.get(other, "x"), state.get(other, "y")]) - c
+        d = np.array([state.get(other, "x"), state.get(other, "y")]) - pinch
         half = 0.5 * state.get(other, "bb_x")
         u, w = abs(float(d @ across)), abs(float(d @ along))
         if u < inner and w < PAD_HALF_WIDTH + half:
             return False  # its centre is between the pads: it would be grasped too
     return True
+
+
+def _grasp_shift(
+    ctx: SortContext, state: ObjectCentricState, cube: Object, yaw: float
+) -> float | None:
+    """The first of :data:`GRASP_SHIFTS` for which the pads close on ``cube`` alone."""
+    for shift in GRASP_SHIFTS:
+        if _pads_clear(ctx, state, cube, yaw, shift):
+            return shift
+    return None
 
 
 class _SortController(TopDownController):
@@ -182,7 +201,7 @@ class PickController(_SortController):
         cube = self.objects[1]
         heading = self._heading(state)
         clear = [
-            _pads_clear(self.context, state, cube, yaw)
+            _grasp_shift(self.context, state, cube, yaw) is not None
             for yaw in grasp_yaws(state, cube, heading)[:2]
         ]
         if clear[0] == clear[1]:
@@ -217,8 +236,10 @@ class PickController(_SortController):
             heading = float(base[2])
         c = np.array([state.get(cube, f) for f in ("x", "y", "z")])
         yaw = grasp_yaws(state, cube, heading)[0 if self.params[0] < 0.5 else 1]
-        if not _pads_clear(ctx, state, cube, yaw):
-            raise SkillFailure(f"Pick: another cube lies under or between the pads at {cube}")
+        shift = _grasp_shift(ctx, state, cube, yaw)
+        if shift is None:
+            raise SkillFailure(f"Pick: another cube lies between the pads around {cube}")
+        c[:2] += shift * np.array([math.cos(yaw), math.sin(yaw)])
         grasp_z = table.top + PAD_REACH + PAD_CLEARANCE
 
         def descend(s: ObjectCentricState) -> list[Segment]:
