@@ -11,7 +11,7 @@ pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
 from kinder_gym.models import create_model
-from kinder_gym.models.dynamic3d.sort_cluttered_blocks3d import _pads_clear
+from kinder_gym.models.dynamic3d.sort_cluttered_blocks3d import _grasp_shift, _pads_clear
 from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position
 from kinder_gym.skills import SkillFailure, execute_skill
 
@@ -92,10 +92,14 @@ def test_pads_check_sees_a_cube_between_the_pads(env) -> None:
     _move(state, cube2, (0.0, 0.012, 0.405))
     assert not _pads_clear(ctx, state, cube1, math.pi / 2)
     assert _pads_clear(ctx, state, cube1, 0.0)
+    # ... unless the pinch point moves 5 mm away from cube2 along the pads' width.
+    assert _grasp_shift(ctx, state, cube1, math.pi / 2) == pytest.approx(-0.005)
+    assert _grasp_shift(ctx, state, cube1, 0.0) == 0.0
     # Stacked on cube1: between the pads whichever way they close.
     _move(state, cube2, (0.0, 0.0, 0.415))
     assert not _pads_clear(ctx, state, cube1, 0.0)
     assert not _pads_clear(ctx, state, cube1, math.pi / 2)
+    assert _grasp_shift(ctx, state, cube1, 0.0) is None
 
 
 def test_pick_and_drop_reach_their_predictions(env) -> None:
