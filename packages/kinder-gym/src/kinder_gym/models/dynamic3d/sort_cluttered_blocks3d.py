@@ -24,12 +24,13 @@ moves are Rearrange3D's :class:`~kinder_gym.models.dynamic3d.rearrange3d.TopDown
 * Pick: the first time, retract the arm and drive the base beside the table's long side,
   facing it (two straight legs around the table corner), from where the pile and every
   container are within the arm's top-down workspace. Then move the pinch point above the cube
-  with the fingers across one of its faces and opened to 3.4 cm only (wide open, they would
-  sweep the cube's neighbours in), descend straight until the pad tips are just above the
-  table, close and lift straight up. The pinch point is shifted up to 5 mm off the cube's
-  centre along the pads' width when that keeps another cube's centre out from between the
-  pads; a pick with no such shift fails at once (the planner then tries another heading or
-  another order).
+  with the fingers across one of its faces and opened to 1.7 cm only (wide open, they would
+  sweep the cube's neighbours in), descend straight until the pad tips are 3 mm above the
+  cube's bottom (on the table, or on the cube it is stacked on), close and lift straight up.
+  The pinch point is shifted up to 5 mm off the cube's centre along the pads' width when that
+  keeps another cube's centre out from between the pads (cubes below the pad tips do not
+  count); a pick with no such shift fails at once (the planner then tries another heading or
+  another order: a cube stacked on another is picked first).
 * Drop: carry the cube straight above a sampled spot of its goal region, lower it until its
   bottom is 1 cm above the container's floor, open the fingers to 4.7 cm (inside a bin's
   9 cm), rise, and open fully.
@@ -145,6 +146,11 @@ class _Table:
         self.corner_x = self.centre[0] + length / 2 + 0.2 + CORNER_CLEARANCE
 
 
+def _bottom(state: ObjectCentricState, cube: Object) -> float:
+    """Height (m) of a (flat) cube's bottom face."""
+    return state.get(cube, "z") - 0.5 * state.get(cube, "bb_z")
+
+
 def _pads_clear(
     ctx: SortContext, state: ObjectCentricState, cube: Object, yaw: float, shift: float = 0.0
 ) -> bool:
@@ -157,10 +163,11 @@ def _pads_clear(
     along = np.array([math.cos(yaw), math.sin(yaw)])
     pinch = np.array([state.get(cube, "x"), state.get(cube, "y")]) + shift * along
     inner = 0.5 * 0.085 * (1.0 - PRE_GRASP)
+    pad_bottom = _bottom(state, cube) + PAD_CLEARANCE
     for name in ctx.regions:
         other = ctx.env.objects[name]  # type: ignore[attr-defined]
-        if other == cube:
-            continue
+        if other == cube or _bottom(state, other) + state.get(other, "bb_z") < pad_bottom:
+            continue  # the target itself, or a cube the pads stay above (one under it)
         d = np.array([state.get(other, "x"), state.get(other, "y")]) - pinch
         half = 0.5 * state.get(other, "bb_x")
         u, w = abs(float(d @ across)), abs(float(d @ along))
@@ -240,7 +247,7 @@ class PickController(_SortController):
         if shift is None:
             raise SkillFailure(f"Pick: another cube lies between the pads around {cube}")
         c[:2] += shift * np.array([math.cos(yaw), math.sin(yaw)])
-        grasp_z = table.top + PAD_REACH + PAD_CLEARANCE
+        grasp_z = _bottom(state, cube) + PAD_REACH + PAD_CLEARANCE
 
         def descend(s: ObjectCentricState) -> list[Segment]:
             target = np.array([*c[:2], grasp_z])
