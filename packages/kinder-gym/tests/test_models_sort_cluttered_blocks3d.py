@@ -100,6 +100,8 @@ def test_pads_check_sees_a_cube_between_the_pads(env) -> None:
     assert not _pads_clear(ctx, state, cube1, 0.0)
     assert not _pads_clear(ctx, state, cube1, math.pi / 2)
     assert _grasp_shift(ctx, state, cube1, 0.0) is None
+    # The top cube's pads close above cube1, so it can be picked first.
+    assert _pads_clear(ctx, state, cube2, 0.0)
 
 
 def test_pick_and_drop_reach_their_predictions(env) -> None:
