@@ -46,9 +46,10 @@ Differences from upstream: no upstream bilevel-planning model exists for this fa
 Limits:
 
 * The o20 variants cannot be solved within their episode limit (1000 steps, as upstream): one
-  pick and drop takes about 110 steps with this arm's 0.1 rad per step joint moves, so 20
-  cubes need about 2200. The planner's 60 s budget binds as well (one step simulates in about
-  30 ms, so 2200 steps cost over 60 s to sample once).
+  pick and drop takes about 100 steps with this arm's 0.1 rad per step joint moves (o4 BP
+  plans: 434 steps on average for four cubes, the drive included), so 20 cubes need about
+  2000. The planner's 60 s budget binds as well (a step simulates in 30–40 ms, so 2000 steps
+  cost over 60 s to sample once).
 * A cube lying on an edge (tilted in the pile) is grasped as if flat; cubes whose neighbours
   get caught between the pads make the pick's prediction fail and the planner resample.
 * o12 (cupboard) is not modelled: the rods need a regrasp to stand upright in the top shelf's
