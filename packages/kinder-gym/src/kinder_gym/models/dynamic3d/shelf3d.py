@@ -58,12 +58,12 @@ from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
     HOME,
-    MAX_DELTA,
     Dynamic3DController,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
+    drive_segment,
     gripper_quat,
     ik_near,
     line_segments,
@@ -200,18 +200,7 @@ class _ShelfController(Dynamic3DController):
     ) -> Segment:
         state = self.state
         assert state is not None
-        start = base_pose(state, self.robot)
-        dist = float(np.linalg.norm(goal[:2] - start[:2]))
-        turn = abs(wrap_angle(float(goal[2] - start[2])))
-        steps = math.ceil(max(dist, turn) / MAX_DELTA) + 40
-        return Segment(
-            base=(float(goal[0]), float(goal[1]), float(goal[2])),
-            arm=tuple(float(v) for v in arm),
-            gripper=gripper,
-            arm_tol=0.05,
-            base_tol=tol,
-            max_steps=steps,
-        )
+        return drive_segment(state, self.robot, goal, arm, gripper, tol)
 
 
 class PickController(_ShelfController):

@@ -176,6 +176,30 @@ def line_segments(
     return segments
 
 
+def drive_segment(
+    state: ObjectCentricState,
+    robot: Object,
+    goal: FloatArray,
+    arm: FloatArray,
+    gripper: float,
+    tol: float,
+) -> Segment:
+    """A segment driving the base to ``goal`` ``(x, y, yaw)`` with the arm held at ``arm``,
+    with a step budget of the larger of the distance and the turn at full speed, plus 40."""
+    start = base_pose(state, robot)
+    dist = float(np.linalg.norm(goal[:2] - start[:2]))
+    turn = abs(wrap_angle(float(goal[2] - start[2])))
+    steps = math.ceil(max(dist, turn) / MAX_DELTA) + 40
+    return Segment(
+        base=(float(goal[0]), float(goal[1]), float(goal[2])),
+        arm=tuple(float(v) for v in arm),
+        gripper=gripper,
+        arm_tol=0.05,
+        base_tol=tol,
+        max_steps=steps,
+    )
+
+
 class Dynamic3DController(Controller):
     """Segment following for the Dynamic3D robot (see the module docstring).
 
@@ -274,6 +298,7 @@ __all__ = [
     "Segment",
     "arm_joints",
     "base_pose",
+    "drive_segment",
     "gripper_quat",
     "ik_near",
     "line_segments",

@@ -1,0 +1,399 @@
+"""The Rearrange3D planning model: put household objects into a spatial relation with a bowl.
+
+Every Rearrange3D task (o1: the boxed drink; o2: the boxed drink and the can) names, per object,
+a goal region in a world-aligned frame at the bowl's centre (behind = +x, left = +y, "next to"
+is the union of the left and right boxes). The model reads the goal's ``on`` atoms from the task
+file, so every language variant works with the same code.
+
+Concepts:
+
+* ``HandEmpty(robot)``: the fingers are open (measured closure below 0.2).
+* ``Holding(robot, obj)``: the fingers are closed, the object's centre is within 8 cm of the
+  pinch point and at least 1.5 cm above where it rests on the island.
+* ``Loose(obj)``: not held and not in its goal region (it still has to be moved).
+* ``Placed(obj)``: not held and its centre is in its goal region (the env's own ``on`` test, so
+  the goal atoms imply the env's goal).
+
+Operators: ``Pick(?robot, ?obj)`` (pre HandEmpty, Loose; add Holding; delete HandEmpty, Loose)
+and ``Place(?robot, ?obj)`` (pre Holding; add HandEmpty, Placed; delete Holding). Goal: every
+goal object Placed, and HandEmpty.
+
+Skills (targets tracked closed-loop by :mod:`kinder_gym.models.dynamic3d.tidybot`): the base
+keeps its heading and its distance from the island (it starts 0.3–0.5 m in front of it); when
+a pose is out of the arm's top-down reach, the skill first drives it sideways by the smallest of
+0.1–0.5 m (steps of 0.1 m) that brings every pose of the skill into reach.
+
+* Pick: move the pinch point above the object at the travel height (top-down gripper, fingers
+  closing across one of the drink's faces, the one whose heading is nearest the base's; any
+  heading for the can), descend straight to a sampled depth below the object's top, close, and
+  lift straight up to the travel height.
+* Place: carry the object (held offset measured at the start) straight above a sampled spot of
+  its goal region, lower it straight down until its bottom is 5 mm above the island top, open,
+  and rise straight back to the travel height. The spot keeps the object's footprint clear of
+  the bowl and of the other objects.
+
+Parameter spaces: Pick ``(depth,)`` in [0, 1]: the fingers close 2.5 + 1.5·depth cm below the
+object's top. Place ``(box, u, v)`` in [0, 1]³: ``box`` picks one box of the goal region (the
+left or right one of "next to"), ``(u, v)`` the spot of the object's centre in it (uniform along
+its x and y extents); spots whose footprint would overlap the bowl or another object are
+redrawn by the sampler (up to 100 times) and rejected by the skill.
+
+Differences from upstream: upstream's Rearrange3D has no bilevel-planning model (baselines.md
+lists none), so this one is new; it uses the project's robot controller and IK as Shelf3D.
+
+Limits: the objects are assumed upright (a tipped drink is grasped around its footprint as if
+upright and usually fails, after which the planner resamples). Imports kinder_garden3d (the
+``[3d]`` extra).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.dynamic3d.geometry import quat_yaw
+from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
+from kinder_garden3d.robot.description import forward_kinematics
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
+from kinder_gym.models.dynamic3d.shelf3d import CLOSED, GRIP_STEPS, READY
+from kinder_gym.models.dynamic3d.tidybot import (
+    HOME,
+    Dynamic3DController,
+    Segment,
+    SegmentSource,
+    arm_joints,
+    base_pose,
+    drive_segment,
+    gripper_quat,
+    ik_near,
+    line_segments,
+    pinch_position,
+)
+from kinder_gym.motion_planning import FloatArray, wrap_angle
+from kinder_gym.operators import LiftedOperator
+from kinder_gym.skills import Skill, SkillFailure
+
+BOWL = "bowl_0"
+#: Height (m) of the island top (the task files' ``shelf:2`` frame).
+TABLE_Z = 0.46
+#: Height (m) of the pinch point while moving between objects; a held object's bottom then
+#: clears the tallest object (the can, 12 cm) by more than 4 cm.
+TRAVEL_Z = 0.75
+#: Top-down gripper.
+DOWN = math.pi / 2
+#: Radius (m) of the bowl's rim (its bounding box is 12 cm wide).
+BOWL_RADIUS = 0.06
+#: Clearance (m) kept between a placed object's footprint and the bowl or another object.
+MARGIN = 0.005
+#: Height (m) of a placed object's bottom above the island top when the hand opens.
+RELEASE_GAP = 0.005
+#: Distance (m) from the pinch point within which a lifted object counts as held.
+HOLD_RADIUS = 0.08
+#: Largest arm joint error (rad) at which a move ending with a held object (or at the travel
+#: height) counts as reached: the can's weight leaves about 8 mrad of steady-state error.
+LOADED_TOL = 0.012
+#: Sideways shifts (m) of the base tried, smallest first, when a pose is out of reach.
+BASE_SHIFTS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
+
+
+@dataclass(frozen=True)
+class RearrangeContext:
+    """What the Rearrange3D controllers need besides the state."""
+
+    env: ObjectCentricEnv
+    robot: Object
+    bowl: Object
+    movables: tuple[Object, ...]
+    #: Goal region of each goal object, by object name.
+    regions: dict[str, str]
+
+
+def footprint_radius(state: ObjectCentricState, obj: Object) -> float:
+    """Radius (m) of a circle around the object's footprint."""
+    return 0.5 * math.hypot(state.get(obj, "bb_x"), state.get(obj, "bb_y"))
+
+
+def top_down_yaw(base: FloatArray, arm: FloatArray) -> float:
+    """Heading of a top-down gripper (the one :func:`gripper_quat` takes)."""
+    tf = forward_kinematics((float(base[0]), float(base[1]), float(base[2])), arm)["pinch_site"]
+    across = tf[:3, 1]  # the fingers close along the gripper's y axis
+    return math.atan2(float(across[1]), float(across[0])) - math.pi / 2
+
+
+def grasp_yaws(state: ObjectCentricState, obj: Object, heading: float) -> list[float]:
+    """Gripper headings closing across the object's faces, nearest to ``heading`` first."""
+    yaw = quat_yaw(np.asarray(state[obj][3:7]))
+    cands = [wrap_angle(yaw + k * math.pi / 2) for k in range(4)]
+    return sorted(cands, key=lambda c: abs(wrap_angle(c - heading)))
+
+
+def _spot(
+    ctx: RearrangeContext,
+    state: ObjectCentricState,
+    obj: Object,
+    params: Sequence[float] | FloatArray,
+) -> FloatArray:
+    """The (x, y) spot of the object's centre selected by Place's parameters."""
+    env = ctx.env
+    region = ctx.regions[obj.name]
+    boxes = env.task.regions[region].boxes  # type: ignore[attr-defined]
+    k = min(int(float(params[0]) * len(boxes)), len(boxes) - 1)
+    box = boxes[k]
+    frame = env.regions.transform(state, region)  # type: ignore[attr-defined]
+    local = np.array(
+        [
+            box[0] + float(params[1]) * (box[3] - box[0]),
+            box[1] + float(params[2]) * (box[4] - box[1]),
+            0.0,
+        ]
+    )
+    return np.asarray((frame[:3, :3] @ local + frame[:3, 3])[:2], dtype=np.float64)
+
+
+def _spot_free(
+    ctx: RearrangeContext, state: ObjectCentricState, obj: Object, spot: FloatArray
+) -> bool:
+    """Whether the object's footprint at ``spot`` keeps clear of the bowl and the others."""
+    r = footprint_radius(state, obj)
+    bowl = np.array([state.get(ctx.bowl, "x"), state.get(ctx.bowl, "y")])
+    if np.linalg.norm(spot - bowl) < BOWL_RADIUS + r + MARGIN:
+        return False
+    for other in ctx.movables:
+        if other == obj:
+            continue
+        p = np.array([state.get(other, "x"), state.get(other, "y")])
+        if np.linalg.norm(spot - p) < footprint_radius(state, other) + r + MARGIN:
+            return False
+    return True
+
+
+class TopDownController(Dynamic3DController):
+    """Top-down moves of the pinch point with the base fixed (shared with SortClutteredBlocks3D).
+
+    ``travel_z`` is the height (m) of the pinch point between objects; ``grip`` the gripper
+    command while moving there (set by :meth:`plan` of a subclass)."""
+
+    travel_z = TRAVEL_Z
+    grip = 0.0
+
+    def to_travel(self, state: ObjectCentricState, xy: FloatArray, yaw: float) -> Segment:
+        """One joint-space move to the pinch point above ``xy`` at the travel height."""
+        robot = self.robot
+        q = arm_joints(state, robot)
+        near = READY if np.abs(q - HOME).max() < 0.05 else q
+        target = np.array([float(xy[0]), float(xy[1]), self.travel_z])
+        sol = ik_near(target, gripper_quat(yaw, DOWN), base_pose(state, robot), near)
+        return Segment(arm=tuple(sol), gripper=self.grip, arm_tol=0.01, max_steps=80)
+
+    def base_for(
+        self, state: ObjectCentricState, points: Sequence[FloatArray], yaws: Sequence[float]
+    ) -> tuple[FloatArray, float]:
+        """A base pose from which the pinch point reaches every point top-down with one of
+        ``yaws`` (tried in order), and that yaw: the current pose, else the current pose
+        shifted sideways (along the base's own y axis, heading kept) towards the points by
+        the first of :data:`BASE_SHIFTS` that works. SkillFailure when none does."""
+        base = base_pose(state, self.robot)
+        lateral = np.array([-math.sin(base[2]), math.cos(base[2])])
+        side = 1.0 if float((np.mean(points, axis=0)[:2] - base[:2]) @ lateral) >= 0 else -1.0
+        for shift in BASE_SHIFTS:
+            b = base.copy()
+            b[:2] += side * shift * lateral
+            for yaw in yaws:
+                try:
+                    for p in points:
+                        ik_near(p, gripper_quat(yaw, DOWN), b, READY)
+                except SkillFailure:
+                    continue
+                return b, yaw
+        raise SkillFailure(f"{type(self).__name__}: out of top-down reach from beside the base")
+
+    def shift_base(self, state: ObjectCentricState, goal: FloatArray) -> list[SegmentSource]:
+        """The drive to ``goal`` (the arm and gripper held), or nothing when the base is there."""
+        if np.abs(goal - base_pose(state, self.robot)).max() < 1e-9:
+            return []
+        arm = arm_joints(state, self.robot)
+        robot = self.robot
+        return [lambda s: [drive_segment(s, robot, goal, arm, self.grip, 0.01)]]
+
+
+class PickController(TopDownController):
+    """Pick an object up from the island top. Objects: ``(robot, obj)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
+    params_doc = "(depth,): the fingers close 2.5 + 1.5·depth cm below the object's top."
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") < CLOSED
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        robot, obj = self.objects
+        self.grip = 0.0
+        c = np.array([state.get(obj, f) for f in ("x", "y", "z")])
+        top = float(c[2]) + 0.5 * state.get(obj, "bb_z")
+        grasp_z = top - 0.025 - 0.015 * float(self.params[0])
+        base = base_pose(state, robot)
+        points = [np.array([*c[:2], self.travel_z]), np.array([*c[:2], grasp_z])]
+        goal, heading = self.base_for(state, points, grasp_yaws(state, obj, float(base[2])))
+
+        def descend(s: ObjectCentricState) -> list[Segment]:
+            return line_segments(s, robot, np.array([*c[:2], grasp_z]), heading, DOWN, 0.0)
+
+        def lift(s: ObjectCentricState) -> list[Segment]:
+            p = pinch_position(base_pose(s, robot), arm_joints(s, robot))
+            target = np.array([p[0], p[1], self.travel_z])
+            return line_segments(
+                s, robot, target, heading, DOWN, 1.0, spacing=0.05, final_tol=LOADED_TOL
+            )
+
+        close = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
+
+        def above(s: ObjectCentricState) -> list[Segment]:
+            return [self.to_travel(s, c[:2], heading)]
+
+        return [*self.shift_base(state, goal), above, descend, close, lift]
+
+
+class PlaceController(TopDownController):
+    """Put the held object down on a spot of its goal region. Objects: ``(robot, obj)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
+    params_doc = (
+        "(box, u, v): box ⌊box·n⌋ of the object's n-box goal region, and the object's centre at "
+        "fractions (u, v) of that box's x and y extents (world-aligned, metres)."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") >= CLOSED
+
+    def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
+        """Uniform, redrawn (up to 100 times) while the spot is not free."""
+        ctx: RearrangeContext = self.context
+        obj = self.objects[1]
+        params = rng.uniform(0.0, 1.0, 3)
+        for _ in range(100):
+            if _spot_free(ctx, state, obj, _spot(ctx, state, obj, params)):
+                break
+            params = rng.uniform(0.0, 1.0, 3)
+        return params
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        ctx: RearrangeContext = self.context
+        robot, obj = self.objects
+        self.grip = 1.0
+        spot = _spot(ctx, state, obj, self.params)
+        if not _spot_free(ctx, state, obj, spot):
+            raise SkillFailure("Place: the spot overlaps the bowl or another object")
+        base = base_pose(state, robot)
+        arm = arm_joints(state, robot)
+        pinch = pinch_position(base, arm)
+        yaw = top_down_yaw(base, arm)
+        c = np.array([state.get(obj, f) for f in ("x", "y", "z")])
+        offset = c - pinch  # the held object relative to the pinch point
+        bottom = float(c[2]) - 0.5 * state.get(obj, "bb_z")
+        release_z = float(pinch[2]) - (bottom - TABLE_Z - RELEASE_GAP)
+        target_xy = spot - offset[:2]
+        points = [np.array([*target_xy, self.travel_z]), np.array([*target_xy, release_z])]
+        goal, _ = self.base_for(state, points, [yaw])
+
+        def carry(s: ObjectCentricState) -> list[Segment]:
+            goal = np.array([*target_xy, self.travel_z])
+            return line_segments(s, robot, goal, yaw, DOWN, 1.0, spacing=0.05, final_tol=LOADED_TOL)
+
+        def lower(s: ObjectCentricState) -> list[Segment]:
+            goal = np.array([*target_xy, release_z])
+            return line_segments(s, robot, goal, yaw, DOWN, 1.0, final_tol=LOADED_TOL)
+
+        def rise(s: ObjectCentricState) -> list[Segment]:
+            goal = np.array([*target_xy, self.travel_z])
+            return line_segments(s, robot, goal, yaw, DOWN, 0.0, spacing=0.05, final_tol=LOADED_TOL)
+
+        release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
+        return [*self.shift_base(state, goal), carry, lower, release, rise]
+
+
+def create_model(env: ObjectCentricEnv) -> PlanningModel:
+    """The Rearrange3D planning model (any language variant, o1 and o2)."""
+    objects: dict[str, Object] = env.objects  # type: ignore[attr-defined]
+    robot_obj = objects["robot"]
+    goal_expr = env.task.goal  # type: ignore[attr-defined]
+    regions: dict[str, str] = {}
+    for atom in goal_expr[1] if goal_expr[0] == "and" else [goal_expr]:
+        if atom[0] not in ("on", "in"):
+            raise ValueError(f"Rearrange3D model: unsupported goal atom {atom!r}")
+        regions[atom[1]] = atom[2]
+    movables = tuple(sorted(o for n, o in objects.items() if o.type == MOVABLE_TYPE and n != BOWL))
+    goal_objs = tuple(o for o in movables if o.name in regions)
+    ctx = RearrangeContext(env, robot_obj, objects[BOWL], movables, regions)
+
+    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
+    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    Loose = Predicate("Loose", (MOVABLE_TYPE,))
+    Placed = Predicate("Placed", (MOVABLE_TYPE,))
+
+    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        atoms: set[GroundAtom] = set()
+        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
+        if not closed:
+            atoms.add(HandEmpty.ground([robot_obj]))
+        pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))
+        on = env.goal_atoms(state)  # type: ignore[attr-defined]
+        for o in goal_objs:
+            pos = np.asarray(state[o][:3])
+            rest_z = TABLE_Z + 0.5 * state.get(o, "bb_z")
+            if closed and pos[2] > rest_z + 0.015 and np.linalg.norm(pos - pinch) < HOLD_RADIUS:
+                atoms.add(Holding.ground([robot_obj, o]))
+            elif on[f"on({o.name}, {regions[o.name]})"]:
+                atoms.add(Placed.ground([o]))
+            else:
+                atoms.add(Loose.ground([o]))
+        return frozenset(atoms)
+
+    r = Variable("?robot", ROBOT_TYPE)
+    o = Variable("?obj", MOVABLE_TYPE)
+    pick = LiftedOperator(
+        "Pick",
+        (r, o),
+        frozenset({HandEmpty.lift([r]), Loose.lift([o])}),
+        frozenset({Holding.lift([r, o])}),
+        frozenset({HandEmpty.lift([r]), Loose.lift([o])}),
+    )
+    place = LiftedOperator(
+        "Place",
+        (r, o),
+        frozenset({Holding.lift([r, o])}),
+        frozenset({HandEmpty.lift([r]), Placed.lift([o])}),
+        frozenset({Holding.lift([r, o])}),
+    )
+
+    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        del state
+        return frozenset({HandEmpty.ground([robot_obj])} | {Placed.ground([g]) for g in goal_objs})
+
+    return PlanningModel(
+        name="rearrange3d",
+        env=env,
+        types=(ROBOT_TYPE, MOVABLE_TYPE),
+        predicates=(HandEmpty, Holding, Loose, Placed),
+        skills=(Skill(pick, PickController, ctx), Skill(place, PlaceController, ctx)),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        objects_fn=lambda state: [robot_obj, *goal_objs],
+        max_skill_horizon=300,
+    )
+
+
+__all__: Sequence[str] = [
+    "PickController",
+    "PlaceController",
+    "TopDownController",
+    "create_model",
+    "footprint_radius",
+    "grasp_yaws",
+    "top_down_yaw",
+]
