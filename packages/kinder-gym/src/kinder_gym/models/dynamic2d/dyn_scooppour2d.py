@@ -28,14 +28,15 @@ at least half of the small objects rest right of the wall below y = 0.75).
 Operators: ``GraspScoop(?robot, ?hook)``: pre {HandEmpty}; add {Holding}; delete {HandEmpty}.
 ``ScoopAndPour(?robot, ?hook)``: pre {Holding}; add {Poured}. Goal: ``Poured(hook)``.
 
-Upstream has no planning model for DynScoopPour2D. Limits (measured on o10 seeds 0–5, see the
-results file): the grasp takes about 100–160 actions and a trip about 350–400 (the robot moves
-at most 0.03 m per action, and the scoop goes from the floor over the 1.5 m wall and back twice
-per trip); the first trip brings 3–5 objects, the second 0–1 (what is left lies scattered or
-pressed against the left wall). Within the 1000-step episode limit that is two trips, so o10
-(5 objects needed) is solved on some seeds only, and o20 and more (10 to 25 objects needed) are
-out of reach of this skill. A faster or larger-yield scoop (e.g. several passes before lifting,
-or carrying the pile along the floor to the wall first) would be the next step.
+Upstream has no planning model for DynScoopPour2D. Limits (measured, see
+``benchmarks/results/bilevel_planning.md``): the grasp takes about 100–160 actions and a trip
+about 350–400 (the robot moves at most 0.03 m per action, and the scoop goes from the floor over
+the 1.5 m wall and back), so the 1000-step episode limit leaves room for about two trips. A trip
+brings 3–5 objects from the o10 pile, more from the higher piles of o20 and o30; successful
+episodes end close to the limit (870–990 steps), and most failures are plans whose goal comes
+after step 1000 (the planner does not check the episode limit). o50 needs 25 objects, beyond two
+trips. A faster or larger-yield scoop (several passes before lifting, pouring lower so objects
+land sooner) is the next step.
 """
 
 from __future__ import annotations
