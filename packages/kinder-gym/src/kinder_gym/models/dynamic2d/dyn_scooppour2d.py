@@ -16,7 +16,7 @@ the objects actually are):
 4. raise 10 cm, then turn the scoop about its corner until the tip is ``carry_tilt`` radians
    up: the objects roll into the corner against the handle;
 5. lift over the wall (base at y = 2.45), carry to x = 2.7 and turn by ``pour`` radians
-   (tip down) so the objects fall out on the right; then wait 10 steps.
+   (tip down) so the objects fall out on the right.
 
 Trips repeat until the env's goal holds (the skill ends there) or the step budget ends. Poured
 objects fall slowly (gravity −1, heavy damping), so the goal holds some tens of steps after the
@@ -30,13 +30,14 @@ Operators: ``GraspScoop(?robot, ?hook)``: pre {HandEmpty}; add {Holding}; delete
 
 Upstream has no planning model for DynScoopPour2D. Limits (measured, see
 ``benchmarks/results/bilevel_planning.md``): the grasp takes about 100–160 actions and a trip
-about 350–400 (the robot moves at most 0.03 m per action, and the scoop goes from the floor over
+about 350 (the robot moves at most 0.03 m per action, and the scoop goes from the floor over
 the 1.5 m wall and back), so the 1000-step episode limit leaves room for about two trips. A trip
-brings 3–5 objects from the o10 pile, more from the higher piles of o20 and o30; successful
-episodes end close to the limit (870–990 steps), and most failures are plans whose goal comes
-after step 1000 (the planner does not check the episode limit). o50 needs 25 objects, beyond two
-trips. A faster or larger-yield scoop (several passes before lifting, pouring lower so objects
-land sooner) is the next step.
+brings 3–5 objects from the low o10 pile and more from the higher piles of o20 and o30, so o10
+(5 objects needed) fails when the first trip brings fewer than 4; successful episodes end close
+to the limit (840–970 steps), and some failures are plans whose goal comes after step 1000 (the
+planner does not check the episode limit); o50 needs 25 objects, which two trips rarely bring.
+A faster or larger-yield scoop (several passes before
+lifting, pouring lower so objects land sooner) is the next step.
 """
 
 from __future__ import annotations
@@ -80,7 +81,7 @@ GRASP_OVERLAP = 0.1
 #: Speed of the slide into the pile (fraction of the action bounds).
 SLIDE_SPEED = 0.5
 #: Steps held still after a pour.
-POUR_WAIT = 10
+POUR_WAIT = 0
 
 Target = tuple[FloatArray, float, int]  # (x, y, theta, arm, gap), speed, wait
 Phase = Callable[[ObjectCentricState], list[Target]]
@@ -250,7 +251,7 @@ class ScoopAndPourController(_PhasedController):
         dx = float(tip[0]) - float(self.params[1])
         return [
             (np.array([q[0] - max(dx, 0.0), q[1], q[2], q[3], q[4]]), SLIDE_SPEED, 0),
-            (np.array([q[0] - max(dx, 0.0), q[1] + 0.1, q[2], q[3], q[4]]), 0.5, 0),
+            (np.array([q[0] - max(dx, 0.0), q[1] + 0.1, q[2], q[3], q[4]]), 1.0, 0),
         ]
 
     def _level(self, state: ObjectCentricState) -> list[Target]:
