@@ -36,8 +36,8 @@ brings 3–5 objects from the low o10 pile and more from the higher piles of o20
 (5 objects needed) fails when the first trip brings fewer than 4; successful episodes end close
 to the limit (840–970 steps), and some failures are plans whose goal comes after step 1000 (the
 planner does not check the episode limit); o50 needs 25 objects, which two trips rarely bring.
-A faster or larger-yield scoop (several passes before
-lifting, pouring lower so objects land sooner) is the next step.
+A faster or larger-yield scoop (several passes before lifting, pouring lower so objects land
+sooner) is the next step.
 """
 
 from __future__ import annotations
