@@ -514,6 +514,9 @@ def test_fm_agents_say_what_they_need(monkeypatch: pytest.MonkeyPatch) -> None:
     assert LLMPlanAgent.unavailable(FMConArgs(cache_mode="only"), motion) is None
     monkeypatch.setenv("OPENAI_API_KEY", "sk-test")
     assert LLMPlanAgent.unavailable(FMPlanArgs(), motion) is None
+    from kinder_gym.models import MODELS
+
+    monkeypatch.delitem(MODELS, "DynPushT2D")  # a family without a planning model
     assert "planning model" in str(
         LLMPlanAgent.unavailable(FMPlanArgs(), "kinder/DynPushT2D-t1-v0")
     )

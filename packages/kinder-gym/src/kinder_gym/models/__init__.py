@@ -23,6 +23,8 @@ MODELS: dict[str, str] = {
     "StickButton2D": "kinder_gym.models.kinematic2d.stickbutton2d:create_model",
     "DynObstruction2D": "kinder_gym.models.dynamic2d.dyn_obstruction2d:create_model",
     "DynPushPullHook2D": "kinder_gym.models.dynamic2d.dyn_pushpullhook2d:create_model",
+    "DynPushT2D": "kinder_gym.models.dynamic2d.dyn_pusht2d:create_model",
+    "DynScoopPour2D": "kinder_gym.models.dynamic2d.dyn_scooppour2d:create_model",
     "BaseMotion3D": "kinder_gym.models.kinematic3d.base_motion3d:create_model",
     "Transport3D": "kinder_gym.models.kinematic3d.transport3d:create_model",
     "Shelf3D": "kinder_gym.models.dynamic3d.shelf3d:create_model",

@@ -1,0 +1,66 @@
+"""DynScoopPour2D model: predicates on edited states, the grasp and scoop-and-pour skills."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kinder_bench.baselines.bilevel_planning import plan_reaches_goal
+from kinder_core import make_object_centric
+from kinder_gym.models import create_model
+from kinder_gym.models.dynamic2d.dyn_scooppour2d import scoop_tip
+from kinder_gym.skills import execute_skill
+
+
+def test_scooppour_abstraction_on_edited_states() -> None:
+    env = make_object_centric("kinder/DynScoopPour2D-o10-v0")
+    model = create_model(env)
+    state = env.reset(seed=0)[0]
+    assert {str(a) for a in model.abstract(state)} == {"(HandEmpty robot)"}
+    assert {str(a) for a in model.goal(state)} == {"(Poured hook)"}
+    state.set(env.hook, "held", 1.0)  # type: ignore[attr-defined]
+    assert {str(a) for a in model.abstract(state)} == {"(Holding robot hook)"}
+    # Five of the ten objects at rest on the right floor: the env's goal, and Poured.
+    for k, obj in enumerate(env.smalls[:5]):  # type: ignore[attr-defined]
+        state.set(obj, "x", 2.0 + 0.2 * k)
+        state.set(obj, "y", 0.1)
+    assert env.goal_reached(state)
+    assert "(Poured hook)" in {str(a) for a in model.abstract(state)}
+    state.set(env.smalls[0], "vx", 0.1)  # type: ignore[attr-defined]
+    assert "(Poured hook)" not in {str(a) for a in model.abstract(state)}
+
+
+def test_scoop_tip_of_the_initial_scoop() -> None:
+    env = make_object_centric("kinder/DynScoopPour2D-o10-v0")
+    state = env.reset(seed=0)[0]
+    hook = env.hook  # type: ignore[attr-defined]
+    x, y = state.get(hook, "x"), state.get(hook, "y")
+    # Handle up, foot to the left on the floor (y from the corner up by the width): the tip is
+    # 0.5 m left of the corner.
+    np.testing.assert_allclose(scoop_tip(state, hook), [x - 0.5, y + 0.025], atol=1e-6)
+
+
+def test_scooppour_skills_reach_their_predictions() -> None:
+    env = make_object_centric("kinder/DynScoopPour2D-o10-v0")
+    model = create_model(env)
+    state = env.reset(seed=4)[0]
+    ops = {o.name: o for o in model.ground_operators(state)}
+    assert sorted(ops) == ["GraspScoop(robot, hook)", "ScoopAndPour(robot, hook)"]
+    op = ops["GraspScoop(robot, hook)"]
+    out = execute_skill(
+        model.skill(op).controller, state, np.zeros(0), env.transition, 1000, stop_on_goal=False
+    )
+    atoms = model.abstract(state)
+    assert out.finished and model.abstract(out.states[-1]) == op.apply(atoms)
+    used = len(out.actions)
+    state, atoms = out.states[-1], model.abstract(out.states[-1])
+    op = ops["ScoopAndPour(robot, hook)"]
+    params = np.array([0.5, 0.12, 1.0, 1.2])
+    out = execute_skill(model.skill(op).controller, state, params, env.transition, 1000 - used)
+    assert out.finished and env.goal_reached(out.states[-1])
+    assert model.abstract(out.states[-1]) == op.apply(atoms)
+
+
+def test_bilevel_planner_solves_scooppour() -> None:
+    env = make_object_centric("kinder/DynScoopPour2D-o10-v0")
+    solved, _ = plan_reaches_goal(env, seed=4)
+    assert solved
