@@ -31,20 +31,28 @@ interpolations and straight pinch-point lines, with mink IK seeded from the curr
   the gripper horizontal and the fingers closing vertically, grasp, drive the base 0.17–0.21 m
   back with the arm still (the drawer follows), release, back off (no fold: the next skill
   retracts before it drives).
-* PickWiper: retract, drive 0.72–0.78 m in front of a grasp point on the head 3–6 cm from its
-  centre (clear of the handle), reach down, close across the head, lift 7 cm, and turn the wiper
-  about the vertical so that its head lies across +x with the handle trailing (−x), as every
-  sweep pass carries it: done once here instead of in every sampled pass.
-* Sweep: drive the base (arm still) to a standoff facing −x; lower the head onto the top just
-  behind (−x of) the screws of a 24 cm band around the target screw, pressed 5–20 mm into it (a
-  head aimed only a few mm into the top rode over the screws); drive the base toward +x at
-  0.5–1.5 cm per action until the head is past the front edge; lift. Its sampler picks the
-  band's offset that covers the most screws still on the top with the head's inner 16 cm.
+* PickWiper: raise the gripper 15 cm above the top where it is (in front of the island, clear of
+  the drawer's handle), then drive 0.72–0.78 m in front of a grasp point on the head 3–6 cm from
+  its centre (clear of the handle) while unfolding the arm toward it (no fold to the retract
+  pose: 150 instead of 200 actions), reach down, close across the head, lift 7 cm, and turn the
+  wiper about the vertical so that its head lies across +x with the handle trailing (−x).
+* Sweep: one pass, or (``gather``) a gathering push that stops 3 cm short of the front edge and
+  then a pass over it. Each push: drive the base (arm still) to a standoff facing −x; turn the
+  wiper *level* (head upright, handle along −x; not only its yaw) and lower the head onto the top
+  just behind (−x of) the screws of a 24 cm band around the target screw, its lower edge aimed
+  −2…+3 mm from the top; hold it there SETTLE steps, then drive the base toward +x at 0.5–1.5 cm
+  per action until the head is past the edge (or the gathering stop) while a servo on the
+  measured head height lowers the arm target (integral action, 0.5 m per m of error per step)
+  whenever the head rises; lift. Its sampler picks the band's offset that covers the most screws
+  still on the top with the head's inner 16 cm, and gathers 3 times in 4 when a screw of the band
+  lies behind x = 0.72 m (else 1 in 4).
 
-Step counts (seed 0): OpenDrawer ≈ 110, PickWiper ≈ 200, one Sweep pass ≈ 55–100 actions, so
-a plan with two passes fits the runner's 500-step budget. Planning time is almost all MuJoCo
-stepping (``mj_step`` ≈ 90 % of a cProfile'd planning call; IK < 3 %), so the skills are kept
-short and the samplers biased rather than the IK made cheaper.
+Step counts (seed 0): OpenDrawer ≈ 110, PickWiper ≈ 150, one Sweep pass ≈ 35–90 actions, with a
+gathering push ≈ 100–140, so open, pick, a gathering sweep and one more pass fit the runner's
+500-step budget, which the planner now enforces (plans that would exceed the episode's
+remaining steps are rejected, :mod:`kinder_bench.baselines.bilevel_planning`). Planning time is
+almost all MuJoCo stepping (``mj_step`` ≈ 90 % of a cProfile'd planning call; IK < 3 %), so
+the skills are kept short and the samplers biased rather than the IK made cheaper.
 
 Findings (MuJoCo, this env) that shaped the design:
 
@@ -74,6 +82,27 @@ Findings (MuJoCo, this env) that shaped the design:
   another (``Lost``), so the planner, which simulates every pass and rejects those losing a
   screw, needs several samples per pass; on some seeds it finds no plan in 25 s.
 
+Why passes failed under the elliptic friction cones (measured on the seeded instances 0–11,
+from the state after OpenDrawer and PickWiper, passes aimed at the first screw left, no planner;
+throw-away scripts, summarised here):
+
+* The head was not on the top when it met the screws. Three causes: (1) the push segment had no
+  arm target, so the controller held the arm where it *was* when the lowering ended (on the top,
+  not pressed), (2) the lowering only corrected the wiper's yaw: the head sat rolled ≈ 2° in the
+  grip, one end on the top and the other 7 mm above it, (3) while the base drives, the arm rises
+  about 1.5 mm per cm (arm compliance), without any contact. Screws are capsules (head 18 mm,
+  shaft 9 mm in diameter, the shaft 1.7 mm above the top), so an edge a few mm up wedges under
+  the shafts and rides over the screws; contact forces on the head then reached 60 N upward.
+* Pressing harder is no cure: a head aimed 15–40 mm into the top pressed with ≈ 110 N, whose
+  table friction twisted the wiper in the grip and lifted it (fewer screws in: 25 against 37 for
+  the old skill, 10 seeds × 3 passes). Push speed (0.5 or 1.5 cm per action) changed nothing.
+* Even with the head level, held and servoed, a single long first push over the scattered screws
+  dropped 0–2 (mean 0.5 over 10 seeds, the old skill 0.7), while a second pass over the line of
+  screws it left near the edge dropped most: hence the gathering push, after which the first
+  Sweep drops 0–5 (mean 2.4 over 11 seeds) in 100–140 actions. Over 3 greedy Sweep skills per
+  seed (no backtracking), 44 of 55 screws ended in the drawer (old skill: 37 of 50), with
+  losses (a screw pushed off a side of the top) the main remaining failure.
+
 Imports kinder_garden3d (the ``[3d]`` extra).
 
 Version notes:
@@ -84,6 +113,9 @@ Version notes:
 * Contact update (the env's elliptic friction cones, ``impratio`` 10): the findings above about
   held objects creeping out of the pads were made with MuJoCo's default contacts; the wiper
   grasp (head, 7 cm lift) was kept as it is and not re-tuned.
+* Sweep re-tuned for those contacts (issue 18): the level, held and servoed head, the gathering
+  push and PickWiper without the fold (above); the Sweep parameters gained ``gather`` (5-D) and
+  the clearance range moved from −20…−5 mm to −2…+3 mm (servoed).
 """
 
 from __future__ import annotations
