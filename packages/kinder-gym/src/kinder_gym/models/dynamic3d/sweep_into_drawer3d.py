@@ -30,7 +30,7 @@ interpolations and straight pinch-point lines, with mink IK seeded from the curr
 * OpenDrawer: retract, drive 0.78–0.84 m in front of the handle facing −x, reach the handle with
   the gripper horizontal and the fingers closing vertically, grasp, drive the base 0.17–0.21 m
   back with the arm still (the drawer follows), release, back off (no fold: the next skill
-  retracts before it drives).
+  raises the gripper before it drives).
 * PickWiper: raise the gripper 15 cm above the top where it is (in front of the island, clear of
   the drawer's handle), then drive 0.72–0.78 m in front of a grasp point on the head 3–6 cm from
   its centre (clear of the handle) while unfolding the arm toward it (no fold to the retract
@@ -402,7 +402,7 @@ class OpenDrawerController(_Controller):
         def back_off(st: ObjectCentricState) -> list[Segment]:
             return pose_line(st, self.robot, self.pinch(st) + np.array([0.1, 0.0, 0.0]), quat, 0.0)
 
-        # No fold at the end: the next skill retracts before it drives anyway.
+        # No fold at the end: the next skill raises or retracts the arm before it drives.
         segs += [approach, Segment(gripper=1.0, min_steps=8), pull_out,
                  Segment(gripper=0.0, min_steps=5), back_off]  # fmt: skip
         return segs
