@@ -108,6 +108,67 @@ def test_no_plan_within_budget_returns_none() -> None:
     assert planner.stats.abstract_plans == 1 and planner.stats.skill_failures >= 1
 
 
+def test_step_budget_rejects_plans_that_would_time_out() -> None:
+    env, x0 = _toy()
+    free = BilevelPlanner(make_toy_model(env), BilevelPlanningArgs())
+    plan = free.plan(x0, np.random.default_rng(0))
+    assert plan is not None and free.stats.over_budget == 0
+    n = len(plan.actions)
+    # A budget of exactly the plan's length changes nothing: same plan, same actions.
+    exact = BilevelPlanner(make_toy_model(env), BilevelPlanningArgs())
+    same = exact.plan(x0, np.random.default_rng(0), max_steps=n)
+    assert same is not None and exact.stats.over_budget == 0
+    assert all(np.array_equal(a, b) for a, b in zip(plan.actions, same.actions, strict=True))
+    # Tighter budgets: whatever comes back fits; far too few steps give no plan at all.
+    for budget in (n - 1, n // 2):
+        short = BilevelPlanner(make_toy_model(env), BilevelPlanningArgs())
+        fit = short.plan(x0, np.random.default_rng(0), max_steps=budget)
+        assert short.stats.over_budget >= 1
+        assert fit is None or len(fit.actions) <= budget
+    short = BilevelPlanner(make_toy_model(env), BilevelPlanningArgs())
+    assert short.plan(x0, np.random.default_rng(0), max_steps=3) is None
+    assert short.stats.over_budget >= 1
+    with pytest.raises(ValueError, match="max_steps"):
+        short.plan(x0, np.random.default_rng(0), max_steps=-1)
+
+
+def test_agent_plans_within_the_episode_steps_left() -> None:
+    from kinder_bench.envs import make_env
+
+    env = make_env("kinder/StickButton2D-b1-v0", max_steps=500)
+    agent = make_agent(AGENT, env, {}, seed=1)
+    assert isinstance(agent, BilevelPlanningAgent)
+    obs, info = env.reset(seed=5)
+    agent.reset(obs, info)
+    plan = agent.plan_
+    assert plan is not None and agent.steps_left() == 500
+    obs, *_ = env.step(agent.act(obs))
+    assert agent.steps_left() == 499
+    # A time limit one step shorter than that plan: whatever plan comes back fits in it.
+    n = len(plan.actions)
+    tight = make_env("kinder/StickButton2D-b1-v0", max_steps=n - 1)
+    agent = make_agent(AGENT, tight, {}, seed=1)
+    assert isinstance(agent, BilevelPlanningAgent)
+    obs, info = tight.reset(seed=5)
+    failure: AgentFailure | None = None
+    try:
+        agent.reset(obs, info)
+    except AgentFailure as e:
+        failure = e
+    if failure is None:
+        assert agent.plan_ is not None and len(agent.plan_.actions) <= n - 1
+    else:
+        assert "no plan found" in str(failure)
+    # Far fewer steps than the task needs: the agent finds no plan and says so.
+    tight = make_env("kinder/StickButton2D-b1-v0", max_steps=5)
+    agent = make_agent(AGENT, tight, {"planning_timeout": 5.0}, seed=1)
+    obs, info = tight.reset(seed=5)
+    with pytest.raises(AgentFailure, match="no plan found"):
+        agent.reset(obs, info)
+    off = make_agent(AGENT, tight, {"respect_episode_limit": False}, seed=1)
+    assert isinstance(off, BilevelPlanningAgent) and off.steps_left() is None
+
+
 def test_args_are_validated() -> None:
     with pytest.raises(ValueError, match="search must be one of"):
         BilevelPlanningArgs(search="dfs")

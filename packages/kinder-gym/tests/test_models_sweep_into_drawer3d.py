@@ -12,8 +12,10 @@ from kinder_gym.concepts import sorted_atoms
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.sweep_into_drawer3d import (
     DRAWER,
+    TABLE_Z,
     SweepController,
     create_model,
+    head_bottom,
     unwrap,
     wiper_pose,
 )
@@ -130,6 +132,29 @@ def test_sweep_sampler_prefers_offsets_covering_more_screws(env, model):
         assert params[0] >= -0.03
 
 
+def test_head_bottom_of_the_resting_wiper_is_on_the_top(env):
+    s = _start(env)
+    assert abs(head_bottom(s, env.objects["wiper_0"]) - TABLE_Z) < 0.003
+    lifted = s.copy()
+    lifted.set(env.objects["wiper_0"], "z", s.get(env.objects["wiper_0"], "z") + 0.05)
+    assert head_bottom(lifted, env.objects["wiper_0"]) - head_bottom(s, env.objects["wiper_0"]) == (
+        pytest.approx(0.05)
+    )
+
+
+def test_sweep_sampler_gathers_when_screws_lie_far_back(env, model):
+    s = _start(env).copy()
+    op = {o.name: o for o in model.ground_operators(s)}[f"Sweep(robot, wiper_0, {DRAWER}, cube_0)"]
+    controller = model.skill(op).controller
+    counts = []
+    for x in (0.65, 0.84):  # every screw far behind the front edge, or all close to it
+        for i in range(5):
+            s.set(env.objects[f"cube_{i}"], "x", x)
+        rng = np.random.default_rng(0)
+        counts.append(sum(controller.sample_parameters(s, rng)[4] >= 0.5 for _ in range(40)))
+    assert counts[0] >= 24 and counts[1] <= 16, counts
+
+
 @pytest.mark.slow
 def test_pick_wiper_then_sweep(env, model):
     s = _start(env)
@@ -148,7 +173,7 @@ def test_pick_wiper_then_sweep(env, model):
     ]
     skill = model.skill(op)
     assert isinstance(skill.controller, SweepController)
-    params = np.array([0.0, 0.01, 0.04, -0.01])
+    params = np.array([0.0, 0.01, 0.04, 0.0, 0.0])  # one pass, no gathering push
     rollout = execute_skill(skill.controller, held, params, env.transition, 300)
     assert rollout.finished
     end = rollout.states[-1]

@@ -19,6 +19,12 @@ Planning from a state ``x0``:
    must reach the env's goal (not just the goal atoms).
 4. When every abstract plan (at most ``max_abstract_plans``) failed, refine the same plans again
    with fresh samples, up to ``refinement_rounds`` rounds in all (upstream: one round).
+5. Episode limit: the agent plans with the steps left in the episode (its env's time limit minus
+   the actions already taken) as a budget, and a skill sample whose rollout is cut off by that
+   budget before the skill finishes (or reaches the goal) is rejected like a failed sample, so
+   no plan longer than the episode's remaining steps is accepted (``respect_episode_limit``;
+   upstream has no such check and returns plans that time out). Rollouts are never cut shorter
+   than ``max_skill_horizon`` otherwise, so with steps to spare the search is unchanged.
 
 The refined plan is a list of actions, executed from the agent's :meth:`act`. Execution is
 monitored: the agent remembers the state each action was planned from and, when the observed
@@ -88,6 +94,9 @@ class BilevelPlanningArgs:
     refinement_rounds: int = 3
     """Rounds of refinement over the abstract plans found (each with fresh samples); 1 is the
     upstream behaviour (each abstract plan is refined once)."""
+    respect_episode_limit: bool = True
+    """Reject plans with more actions than the episode has steps left (the env's time limit);
+    False: the upstream behaviour (no step budget)."""
 
     def __post_init__(self) -> None:
         checks = [
@@ -150,6 +159,8 @@ class PlanningStats:
     skill_failures: int = 0
     abstract_mismatches: int = 0
     model_steps: int = 0
+    over_budget: int = 0
+    """Skill samples rejected because the plan would exceed the step budget."""
     time: float = 0.0
     timed_out: bool = False
 
@@ -166,10 +177,17 @@ class BilevelPlanner:
         self.args = args
         self.horizon = args.max_skill_horizon or model.max_skill_horizon
         self.stats = PlanningStats()
+        self._max_steps: int | None = None
 
-    def plan(self, x0: ObjectCentricState, rng: np.random.Generator) -> RefinedPlan | None:
-        """A refined plan from ``x0``, or None when none was found in time."""
+    def plan(
+        self, x0: ObjectCentricState, rng: np.random.Generator, max_steps: int | None = None
+    ) -> RefinedPlan | None:
+        """A refined plan from ``x0`` with at most ``max_steps`` actions (None: no limit), or None
+        when none was found in time."""
+        if max_steps is not None and max_steps < 0:
+            raise ValueError(f"max_steps must be >= 0 or None, got {max_steps}")
         self.stats = PlanningStats()
+        self._max_steps = max_steps
         start = time.perf_counter()
         deadline = start + self.args.planning_timeout
         try:
@@ -260,6 +278,10 @@ class BilevelPlanner:
         expected = op.apply(atoms)
         gs = model.skill(op)
         deterministic = gs.controller.params_space.shape == (0,)
+        # Steps the rest of the plan may take; the rollout is cut there (never below the
+        # horizon when the budget allows it, so the search is unchanged with steps to spare).
+        budget = None if self._max_steps is None else self._max_steps - len(actions)
+        horizon = self.horizon if budget is None else min(self.horizon, budget)
         for _ in range(1 if deterministic else self.args.samples_per_step):
             if time.perf_counter() > deadline:
                 raise _Timeout
@@ -272,7 +294,7 @@ class BilevelPlanner:
                     x,
                     params,
                     model.env.transition,
-                    self.horizon,
+                    horizon,
                     deadline=deadline,
                 )
             except SkillFailure:
@@ -281,6 +303,13 @@ class BilevelPlanner:
             self.stats.model_steps += len(rollout.actions)
             if rollout.timed_out:
                 raise _Timeout
+            if (
+                horizon < self.horizon
+                and len(rollout.actions) >= horizon
+                and not (rollout.finished or rollout.terminated)
+            ):
+                self.stats.over_budget += 1  # cut off by the episode's step budget
+                continue
             x_next = rollout.states[-1]
             done = rollout.terminated
             rest: list[GroundOperator] = []
@@ -381,6 +410,7 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
         self._plan: RefinedPlan | None = None
         self._failure: str | None = None
         self._t = 0
+        self._steps_taken = 0
         self.replans = 0
         self.history: list[PlanningStats] = []
         self.last_skill: ExecutedSkill | None = None
@@ -392,6 +422,7 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
         self.last_skill = None
         self._plan = None
         self._failure = None
+        self._steps_taken = 0
         self._replan(self.observed_state(obs), first=True)
 
     def _replan(self, state: ObjectCentricState, first: bool = False) -> None:
@@ -404,7 +435,7 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
                 )
                 raise AgentFailure(self._failure)
             self.replans += 1
-        plan = self.planner.plan(state, self.rng)
+        plan = self.planner.plan(state, self.rng, self.steps_left())
         self.history.append(self.planner.stats)
         if plan is None or not plan.actions:
             s = self.planner.stats
@@ -416,6 +447,15 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
             raise AgentFailure(self._failure)
         self._plan = plan
         self._t = 0
+
+    def steps_left(self) -> int | None:
+        """Steps left in the episode (the env's time limit minus the actions taken), or None
+        when the env has no limit or ``respect_episode_limit`` is off."""
+        spec = self.env.spec
+        limit = None if spec is None else spec.max_episode_steps
+        if not self.args.respect_episode_limit or limit is None:
+            return None
+        return max(0, int(limit) - self._steps_taken)
 
     def act(self, obs: Any) -> FloatArray:
         if self._failure is not None:
@@ -437,6 +477,7 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
             len(self.history) - 1, i, plan.skill_operators[i], plan.skills[i][1]
         )
         self._t += 1
+        self._steps_taken += 1
         return self.clip(action)
 
     @property
@@ -456,20 +497,26 @@ def plan_episode(
     state: ObjectCentricState,
     args: BilevelPlanningArgs | None = None,
     seed: int = 0,
+    max_steps: int | None = None,
 ) -> tuple[RefinedPlan | None, PlanningStats]:
-    """Plan once from ``state`` on ``env``'s model (a convenience for scripts and tests)."""
+    """Plan once from ``state`` on ``env``'s model, with at most ``max_steps`` actions (a
+    convenience for scripts and tests)."""
     planner = BilevelPlanner(model_for(env), args or BilevelPlanningArgs())
-    plan = planner.plan(state, np.random.default_rng(seed))
+    plan = planner.plan(state, np.random.default_rng(seed), max_steps)
     return plan, planner.stats
 
 
 def plan_reaches_goal(
-    env: ObjectCentricEnv, seed: int, args: BilevelPlanningArgs | None = None
+    env: ObjectCentricEnv,
+    seed: int,
+    args: BilevelPlanningArgs | None = None,
+    max_steps: int | None = None,
 ) -> tuple[bool, PlanningStats]:
-    """Reset ``env`` with ``seed``, plan once (seeded alike) and replay the plan through
-    ``env.transition``: whether a plan was found and reaches the env's goal (for tests)."""
+    """Reset ``env`` with ``seed``, plan once (seeded alike, at most ``max_steps`` actions) and
+    replay the plan through ``env.transition``: whether a plan was found and reaches the env's
+    goal (for tests)."""
     x0, _ = env.reset(seed=seed)
-    plan, stats = plan_episode(env, x0, args, seed=seed)
+    plan, stats = plan_episode(env, x0, args, seed=seed, max_steps=max_steps)
     if plan is None:
         return False, stats
     state, terminated = x0, False
