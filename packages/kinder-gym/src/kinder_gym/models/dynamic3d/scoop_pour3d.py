@@ -23,14 +23,26 @@ so they stop 3 mm above the island top), close, and lift the scoop 12 cm. The gr
 is the handle axis direction nearer the base's heading (the wrist turns the least). Built on the
 segment controller of :mod:`kinder_gym.models.dynamic3d.tidybot` and Shelf3D's base driving.
 
-Limits (why there is no Scoop/Pour skill yet): the cubes lie spread over a 30 × 45 cm bin, the
-scoop's mouth is 5 × 5 cm with 4 cm walls, so filling it needs a shovel stroke (cup tipped so
-its mouth faces the stroke, lip on the bin floor, dragged, then turned level) followed by a
-tilt over the green bin, each closed-loop on the cube count. Nothing of that was implemented or
-measured. Even once it is, the previous measurement of the env's cost (34 ms per step at o10,
-286 ms at o100 and 3.5 s per reset at o100, on the shared machine) means BP at o100 cannot
-refine a plan within its 60 s budget however good the skills: 60 s buys about 200 simulated
-steps there, fewer than one grasp. Upstream kindergarden 0.2.5 has no BP model for this family.
+Limits (why there is no Scoop/Pour skill yet): the cubes lie spread over the bin floor (10 of
+them over about 15 × 15 cm at o10) and the scoop's mouth is 5 × 5 cm with 4 cm walls, so filling
+it needs a shovel stroke: the cup's lip on the bin floor, its mouth facing the stroke, dragged,
+then turned level, closed-loop on the count of cubes inside. A wall's rim is lower than its
+bottom edge only when the cup is tipped more than 90° from level, so the stroke needs the scoop
+turned past 90°. With this top-down grasp that is the gripper pointing above the horizontal,
+which the arm cannot reach over the bin. Measured (``ScoopPour3D-o10`` seed 0, a prototype
+stroke at 57° of tip, mouth towards the robot, dragged 21 cm towards it along the cubes): the
+cup's bottom edge leads (the lip is 2.2 cm above it) and no cube entered (0 of 10). IK with the
+base at x = −0.1 m facing the yellow bin reaches gripper pitches of 100-120° below the
+horizontal (pointing down and back) for pinch points 0.45-0.55 m ahead at 0.55 m, so a grasp of
+the handle from its free end with the gripper horizontal (fingertips then reach the cup wall:
+the handle is 3.5 cm long, the pads extend 2.5 cm past the pinch point) would allow a 100-120°
+tip; that grasp, the stroke, the pour (a tilt over the green bin, closed-loop on the cubes
+leaving) and their operators with a monotone count predicate were not built in the time
+available. Even once they are, the measured cost of the env (34 ms per step at o10, 286 ms at
+o100 and 3.5 s per reset at o100, on the shared 2-core machine) means BP at o100 cannot refine a
+plan within its 60 s budget however good the skills: 60 s buys about 200 simulated steps there,
+about three GraspScoop runs. Upstream kindergarden 0.2.5 has no BP model for this family
+(``/work/shared/spec/baselines.md``).
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
 
@@ -142,9 +154,9 @@ class GraspScoopController(_ShelfController):
         side = 0.1 * (2 * float(self.params[1]) - 1)
         goal = np.array([h[0] - dist, h[1] + side, 0.0])
         axis = _yaw_of(np.asarray(state[scoop][3:7]))
-        # Either direction along the handle works for a top-down grasp: take the one nearer the
-        # base heading.
-        yaw = axis if abs(wrap_angle(axis)) <= math.pi / 2 else wrap_angle(axis + math.pi)
+        # The gripper heads from the cup to the handle's end, so that pitching the gripper up
+        # (towards the horizontal) tips the cup down, its mouth towards the robot.
+        yaw = wrap_angle(axis + math.pi)
         quat = gripper_quat(yaw, PITCH_DOWN)
         top = float(state.get(scoop, "z")) + HANDLE_TOP
         grasp = np.array([h[0], h[1], top - GRASP_DEPTH])

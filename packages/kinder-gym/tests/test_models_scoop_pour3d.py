@@ -1,0 +1,88 @@
+"""ScoopPour3D (MuJoCo) skills: the concepts on edited states and the GraspScoop skill reaching
+HoldingScoop from seeded states. There is no complete planning model for this family yet (see
+the module docstring of ``kinder_gym.models.dynamic3d.scoop_pour3d``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("kinder_garden3d")
+
+from kinder_core import make_object_centric
+from kinder_gym.models.dynamic3d.scoop_pour3d import (
+    GraspScoopController,
+    abstract_atoms,
+    handle_centre,
+    scoop_context,
+)
+from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position
+from kinder_gym.skills import SkillFailure, execute_skill
+
+
+@pytest.fixture(scope="module")
+def env():
+    e = make_object_centric("kinder/ScoopPour3D-o10-v0")
+    yield e
+    e.close()
+
+
+def test_concepts_on_edited_states(env) -> None:
+    state = env.reset(seed=0)[0]
+    ctx = scoop_context(env, state)
+    assert abstract_atoms(ctx, state) == {"(HandEmpty robot)"}
+    # A cube moved into the green bin's goal region counts as InTarget.
+    frame = env.regions.transform(state, "target_bin_region")
+    moved = state.copy()
+    for feature, value in zip(("x", "y", "z"), frame[:3, 3], strict=True):
+        moved.set(ctx.cubes[0], feature, value)
+    assert abstract_atoms(ctx, moved) == {"(HandEmpty robot)", f"(InTarget {ctx.cubes[0].name})"}
+    # Closed fingers away from the handle hold nothing.
+    closed = state.copy()
+    closed.set(ctx.robot, "pos_gripper", 0.8)
+    assert abstract_atoms(ctx, closed) == set()
+
+
+def test_handle_centre_is_on_the_handle_side(env) -> None:
+    state = env.reset(seed=0)[0]
+    ctx = scoop_context(env, state)
+    pos = np.asarray(state[ctx.scoop][:3])
+    h = handle_centre(state, ctx.scoop)
+    assert abs(np.linalg.norm(h[:2] - pos[:2]) - 0.025) < 1e-3
+    assert h[2] == pytest.approx(pos[2] + 0.01, abs=1e-3)
+
+
+def test_context_rejects_other_envs() -> None:
+    other = make_object_centric("kinder/BalanceBeam3D-o3-v0")
+    try:
+        with pytest.raises(ValueError, match="scoop_0"):
+            scoop_context(other, other.reset(seed=0)[0])
+    finally:
+        other.close()
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_grasp_scoop_reaches_holding(env, seed: int) -> None:
+    state = env.reset(seed=seed)[0]
+    ctx = scoop_context(env, state)
+    controller = GraspScoopController((ctx.robot, ctx.scoop), ctx)
+    rng = np.random.default_rng(seed)
+    for _ in range(3):
+        params = controller.sample_parameters(state, rng)
+        try:
+            out = execute_skill(controller, state, params, env.transition, 400)
+        except SkillFailure:
+            continue
+        if out.finished:
+            break
+    else:
+        pytest.fail("GraspScoop did not finish in 3 samples")
+    final = out.states[-1]
+    assert abstract_atoms(ctx, final) == {"(HoldingScoop robot scoop_0)"}
+    high = env.action_space.high
+    assert all(np.all(np.abs(a) <= high + 1e-9) for a in out.actions)
+    pinch = pinch_position(base_pose(final, ctx.robot), arm_joints(final, ctx.robot))
+    assert np.linalg.norm(pinch - handle_centre(final, ctx.scoop)) < 0.02
+    # Not initiable with closed fingers.
+    with pytest.raises(SkillFailure, match="not initiable"):
+        execute_skill(controller, final, params, env.transition, 10)
