@@ -33,15 +33,22 @@ which the arm cannot reach over the bin. Measured (``ScoopPour3D-o10`` seed 0, a
 stroke at 57° of tip, mouth towards the robot, dragged 21 cm towards it along the cubes): the
 cup's bottom edge leads (the lip is 2.2 cm above it) and no cube entered (0 of 10). IK with the
 base at x = −0.1 m facing the yellow bin reaches gripper pitches of 100-120° below the
-horizontal (pointing down and back) for pinch points 0.45-0.55 m ahead at 0.55 m, so a grasp of
-the handle from its free end with the gripper horizontal (fingertips then reach the cup wall:
-the handle is 3.5 cm long, the pads extend 2.5 cm past the pinch point) would allow a 100-120°
-tip; that grasp, the stroke, the pour (a tilt over the green bin, closed-loop on the cubes
-leaving) and their operators with a monotone count predicate were not built in the time
-available. Even once they are, the measured cost of the env (34 ms per step at o10, 286 ms at
-o100 and 3.5 s per reset at o100, on the shared 2-core machine) means BP at o100 cannot refine a
-plan within its 60 s budget however good the skills: 60 s buys about 200 simulated steps there,
-about three GraspScoop runs. Upstream kindergarden 0.2.5 has no BP model for this family
+horizontal (pointing down and back) for pinch points 0.45-0.55 m ahead at 0.55 m, so a grasp
+that holds the scoop with the gripper near horizontal would allow a 100-120° tip. Two such
+grasps were considered. From the handle's free end (gripper along the handle, 10-25° down): the
+scoop's cup points away from the island's robot side in every seed (its yaw is within 45° of
+−y), so the gripper must point back towards the robot; measured, the arm stalled on the way
+(seed 0) or the hand knocked the scoop off the island (seed 2). From the side (gripper across
+the handle, fingers closing on its top and bottom, then pitched down to roll the cup about the
+handle) was not tried. Whether a tipped stroke collects 5 mm cubes at all was not measured: the
+scoop's 2 mm wall edge may push them instead. The pour (a tilt over the green bin, closed-loop
+on the cubes leaving) and the operators with a monotone count predicate were not built either.
+Even once they are, the cost of the env means BP at the larger variants cannot refine a plan
+within its 60 s budget however good the skills: measured here (``nice -n 10``, load about 9 on
+the shared 2-core machine, zero actions from the seed-0 reset) a transition takes 28 ms at o10
+and 248 ms at o100 and an o100 reset 2.6 s (an earlier measurement: 34 ms, 286 ms, 3.5 s), so at
+o100 60 s buys about 240 simulated steps, about four GraspScoop runs (60-110 steps each) and no
+scoop-pour pass. Upstream kindergarden 0.2.5 has no BP model for this family
 (``/work/shared/spec/baselines.md``).
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
