@@ -39,16 +39,25 @@ grasps were considered. From the handle's free end (gripper along the handle, 10
 scoop's cup points away from the island's robot side in every seed (its yaw is within 45° of
 −y), so the gripper must point back towards the robot; measured, the arm stalled on the way
 (seed 0) or the hand knocked the scoop off the island (seed 2). From the side (gripper across
-the handle, fingers closing on its top and bottom, then pitched down to roll the cup about the
-handle) was not tried. Whether a tipped stroke collects 5 mm cubes at all was not measured: the
-scoop's 2 mm wall edge may push them instead. The pour (a tilt over the green bin, closed-loop
-on the cubes leaving) and the operators with a monotone count predicate were not built either.
-Even once they are, the cost of the env means BP at the larger variants cannot refine a plan
-within its 60 s budget however good the skills: measured here (``nice -n 10``, load about 9 on
-the shared 2-core machine, zero actions from the seed-0 reset) a transition takes 28 ms at o10
-and 248 ms at o100 and an o100 reset 2.6 s (an earlier measurement: 34 ms, 286 ms, 3.5 s), so at
-o100 60 s buys about 240 simulated steps, about four GraspScoop runs (60-110 steps each) and no
-scoop-pour pass. Upstream kindergarden 0.2.5 has no BP model for this family
+the handle pitched 15° down, its fingers pre-closed to 0.65 so that the lower pad clears the
+island, closing on the handle's top and bottom; pitching the gripper down then rolls the cup
+about the handle) the grasp held the scoop on seed 0 (86 steps), and a stroke was prototyped
+from it: cup tipped 100-105° about the handle, lip lowered to 2 mm above the bin floor, dragged
+10-14 cm away from the robot through the cubes, then turned back to 20° in 20° steps pivoting on
+the lip (with or without moving on 1.5-3 cm per step). In all three tries
+(``benchmarks/scoop_pour3d_probe.py --seed 0 --tip 100 --drag 0.14``, and ``--tip 105 --drag
+0.10`` with ``--forward 0.015`` or ``0.03``) 1-2 cubes were inside the cup's box at the end of
+the drag and none once it was turned back: the cubes that pass the 2 mm lip slide out again. A
+stroke that keeps them (e.g. the mouth turned up while still moving, or a deeper tip than the
+arm reaches at that distance) was not found in the time available, nor was this prototype turned
+into a tested skill. The pour (a tilt over the green bin, closed-loop on the cubes leaving) and
+the operators with a monotone count predicate were not built either. Even once they are, the
+cost of the env means BP at the larger variants cannot refine a plan within its 60 s budget
+however good the skills: measured here (``nice -n 10``, load about 9 on the shared 2-core
+machine, zero actions from the seed-0 reset) a transition takes 28 ms at o10 and 248 ms at o100
+and an o100 reset 2.6 s (an earlier measurement: 34 ms, 286 ms, 3.5 s), so at o100 60 s buys
+about 240 simulated steps, about four GraspScoop runs (60-110 steps each) and no scoop-pour
+pass. Upstream kindergarden 0.2.5 has no BP model for this family
 (``/work/shared/spec/baselines.md``).
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
