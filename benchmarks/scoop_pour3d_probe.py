@@ -8,7 +8,8 @@ to x = −0.15 m in line with the cubes; tip the cup ``--tip`` degrees about the
 the gripper down); lower its lowest corner to 2 mm above the bin floor; drag it ``--drag`` metres
 away from the robot; turn it back to 20° in 20° steps pivoting on its lowest point (moving on
 ``--forward`` metres per step); lift 8 cm. It prints, at each stage, the number of cubes whose
-centres are inside the cup's box (in the scoop's frame) and the pinch point. A stage that cannot
+centres are inside the cup (in the scoop's frame: within its walls and 2 mm or more below the
+rim's plane) and the pinch point. A stage that cannot
 be reached ends the run with the reason.
 
 Usage:
@@ -68,7 +69,7 @@ def in_cup(state: ObjectCentricState, ctx: ScoopContext) -> int:
     n = 0
     for c in ctx.cubes:
         local = rot.T @ (np.asarray(state[c][:3]) - pose[:3])
-        n += int(abs(local[0] - 0.0175) < 0.025 and abs(local[1]) < 0.025 and abs(local[2]) < 0.025)
+        n += int(abs(local[0] - 0.0175) < 0.025 and abs(local[1]) < 0.025 and abs(local[2]) < 0.018)
     return n
 
 

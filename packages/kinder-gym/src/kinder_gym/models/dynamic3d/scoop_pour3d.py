@@ -46,19 +46,19 @@ from it: cup tipped 100-105° about the handle, lip lowered to 2 mm above the bi
 10-14 cm away from the robot through the cubes, then turned back to 20° in 20° steps pivoting on
 the lip (with or without moving on 1.5-3 cm per step). In all three tries
 (``benchmarks/scoop_pour3d_probe.py --seed 0 --tip 100 --drag 0.14``, and ``--tip 105 --drag
-0.10`` with ``--forward 0.015`` or ``0.03``) 1-2 cubes were inside the cup's box at the end of
-the drag and none once it was turned back: the cubes that pass the 2 mm lip slide out again. A
-stroke that keeps them (e.g. the mouth turned up while still moving, or a deeper tip than the
-arm reaches at that distance) was not found in the time available, nor was this prototype turned
-into a tested skill. The pour (a tilt over the green bin, closed-loop on the cubes leaving) and
-the operators with a monotone count predicate were not built either. Even once they are, the
-cost of the env means BP at the larger variants cannot refine a plan within its 60 s budget
-however good the skills: measured here (``nice -n 10``, load about 9 on the shared 2-core
-machine, zero actions from the seed-0 reset) a transition takes 28 ms at o10 and 248 ms at o100
-and an o100 reset 2.6 s (an earlier measurement: 34 ms, 286 ms, 3.5 s), so at o100 60 s buys
-about 240 simulated steps, about four GraspScoop runs (60-110 steps each) and no scoop-pour
-pass. Upstream kindergarden 0.2.5 has no BP model for this family
-(``/work/shared/spec/baselines.md``).
+0.10`` with ``--forward 0.015`` or ``0.03``) no cube got into the cup (its centre 2 mm or more
+inside the rim's plane) at any stage; 1-2 cubes rode along at the mouth, their centres within 5
+mm of that plane, and were left behind as the cup turned back. A stroke that fills the cup (e.g.
+the mouth turned up while still moving, or a deeper tip than the arm reaches at that distance)
+was not found in the time available, nor was this prototype turned into a tested skill. The pour
+(a tilt over the green bin, closed-loop on the cubes leaving) and the operators with a monotone
+count predicate were not built either. Even once they are, the cost of the env means BP at the
+larger variants cannot refine a plan within its 60 s budget however good the skills: measured
+here (``nice -n 10``, load about 9 on the shared 2-core machine, zero actions from the seed-0
+reset) a transition takes 28 ms at o10 and 248 ms at o100 and an o100 reset 2.6 s (an earlier
+measurement: 34 ms, 286 ms, 3.5 s), so at o100 60 s buys about 240 simulated steps, about four
+GraspScoop runs (60-110 steps each) and no scoop-pour pass. Upstream kindergarden 0.2.5 has no
+BP model for this family (``/work/shared/spec/baselines.md``).
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
 
