@@ -29,7 +29,7 @@ def env():
 
 def test_concepts_on_edited_states(env) -> None:
     state = env.reset(seed=0)[0]
-    ctx = scoop_context(env, state)
+    ctx = scoop_context(env)
     assert abstract_atoms(ctx, state) == {"(HandEmpty robot)"}
     # A cube moved into the green bin's goal region counts as InTarget.
     frame = env.regions.transform(state, "target_bin_region")
@@ -45,7 +45,7 @@ def test_concepts_on_edited_states(env) -> None:
 
 def test_handle_centre_is_on_the_handle_side(env) -> None:
     state = env.reset(seed=0)[0]
-    ctx = scoop_context(env, state)
+    ctx = scoop_context(env)
     pos = np.asarray(state[ctx.scoop][:3])
     h = handle_centre(state, ctx.scoop)
     assert abs(np.linalg.norm(h[:2] - pos[:2]) - 0.025) < 1e-3
@@ -56,7 +56,7 @@ def test_context_rejects_other_envs() -> None:
     other = make_object_centric("kinder/BalanceBeam3D-o3-v0")
     try:
         with pytest.raises(ValueError, match="scoop_0"):
-            scoop_context(other, other.reset(seed=0)[0])
+            scoop_context(other)
     finally:
         other.close()
 
@@ -64,7 +64,7 @@ def test_context_rejects_other_envs() -> None:
 @pytest.mark.parametrize("seed", [0, 3])
 def test_grasp_scoop_reaches_holding(env, seed: int) -> None:
     state = env.reset(seed=seed)[0]
-    ctx = scoop_context(env, state)
+    ctx = scoop_context(env)
     controller = GraspScoopController((ctx.robot, ctx.scoop), ctx)
     rng = np.random.default_rng(seed)
     for _ in range(3):

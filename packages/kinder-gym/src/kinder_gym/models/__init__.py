@@ -28,6 +28,7 @@ MODELS: dict[str, str] = {
     "Shelf3D": "kinder_gym.models.dynamic3d.shelf3d:create_model",
     "SweepIntoDrawer3D": "kinder_gym.models.dynamic3d.sweep_into_drawer3d:create_model",
     "BalanceBeam3D": "kinder_gym.models.dynamic3d.balance_beam3d:create_model",
+    "ScoopPour3D": "kinder_gym.models.dynamic3d.scoop_pour3d:create_model",
     "Obstruction2D": "kinder_gym.models.kinematic2d.obstruction2d:create_model",
     "ClutteredRetrieval2D": "kinder_gym.models.kinematic2d.clutteredretrieval2d:create_model",
     "ClutteredStorage2D": "kinder_gym.models.kinematic2d.clutteredstorage2d:create_model",

@@ -72,6 +72,9 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.shelf3d import CLOSED, GRIP_STEPS, READY, _ShelfController, _yaw_of
 from kinder_gym.models.dynamic3d.tidybot import (
     HOME,
@@ -85,6 +88,8 @@ from kinder_gym.models.dynamic3d.tidybot import (
     pinch_position,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
+from kinder_gym.operators import LiftedOperator
+from kinder_gym.skills import Skill
 
 TARGET_REGION = "target_bin_region"
 #: Handle centre in the scoop's body frame (the body frame is the bounding box's centre: the
@@ -102,6 +107,8 @@ HOLD_RADIUS = 0.025
 #: Rise (m) of the scoop centre above its resting height for it to count as lifted.
 LIFTED = 0.02
 PITCH_DOWN = math.pi / 2
+#: Height (m) of the scoop's body centre lying on the island top (0.46 m; measured on resets).
+SCOOP_REST_Z = 0.48
 
 
 @dataclass(frozen=True)
@@ -202,21 +209,181 @@ class GraspScoopController(_ShelfController):
         return plan
 
 
-def scoop_context(env: ObjectCentricEnv, state: ObjectCentricState) -> ScoopContext:
-    """The context of the ScoopPour3D controllers for ``env`` (``state``: a reset state, whose
-    scoop height is taken as its resting height)."""
+def scoop_context(env: ObjectCentricEnv) -> ScoopContext:
+    """The context of the ScoopPour3D controllers for ``env``."""
     objects: dict[str, Object] = env.objects  # type: ignore[attr-defined]
     if "scoop_0" not in objects:
         raise ValueError(f"expected a ScoopPour3D env (with a scoop_0 object), got {env!r}")
     scoop = objects["scoop_0"]
     cubes = tuple(sorted(o for n, o in objects.items() if n.startswith("cube_")))
-    return ScoopContext(env, objects["robot"], scoop, cubes, float(state.get(scoop, "z")))
+    return ScoopContext(env, objects["robot"], scoop, cubes, SCOOP_REST_Z)
+
+
+#: Base x (m) while picking and placing cubes: the chassis front stays 7.5 cm off the island.
+CUBE_BASE_X = -0.15
+#: Pinch-point height (m) when the fingers close on a 5 mm cube: the pads reach 2.5 cm below the
+#: pinch point, so they stop 1 mm above the bin floor (0.48 m) and pinch the cube between their
+#: lowest 5 mm.
+CUBE_GRASP_Z = 0.506
+#: Pinch-point height (m) while carrying a cube and releasing it over the green bin.
+CUBE_CARRY_Z = 0.6
+#: Half-ranges (m) of the release spot in the green bin's frame.
+SPOT = (0.08, 0.12)
+
+
+def holding_cube(ctx: ScoopContext, state: ObjectCentricState, cube: Object) -> bool:
+    """Whether the closed fingers hold ``cube`` (within 3.5 cm of the pinch point, off the
+    bin floor)."""
+    if state.get(ctx.robot, "pos_gripper") < CLOSED:
+        return False
+    pinch = pinch_position(base_pose(state, ctx.robot), arm_joints(state, ctx.robot))
+    pos = np.asarray(state[cube][:3])
+    return float(np.linalg.norm(pos - pinch)) < 0.035 and pos[2] > 0.5
+
+
+class PickCubeController(_ShelfController):
+    """Pick a 5 mm cube off the yellow bin's floor. Objects: ``(robot, cube)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
+    params_doc = "(dy,): the base stops 0.1·(2·dy − 1) metres beside the cube along y."
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") < CLOSED
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        robot, cube = self.objects
+        c = np.asarray(state[cube][:3], dtype=np.float64)
+        yaw = (_yaw_of(np.asarray(state[cube][3:7])) + math.pi / 4) % (math.pi / 2) - math.pi / 4
+        quat = gripper_quat(yaw, PITCH_DOWN)
+        goal = np.array([CUBE_BASE_X, c[1] + 0.1 * (2 * float(self.params[0]) - 1), 0.0])
+
+        def reach_above(s: ObjectCentricState) -> list[SegmentSource]:
+            q = ik_near(np.array([c[0], c[1], CUBE_CARRY_Z]), quat, base_pose(s, robot), READY)
+            return [Segment(arm=tuple(float(v) for v in q), arm_tol=0.02, max_steps=80)]
+
+        def descend(s: ObjectCentricState) -> list[SegmentSource]:
+            target = np.array([c[0], c[1], CUBE_GRASP_Z])
+            return list(line_segments(s, robot, target, yaw, PITCH_DOWN, 0.0, pitch_offsets=(0.0,)))
+
+        def lift(s: ObjectCentricState) -> list[SegmentSource]:
+            here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
+            target = np.array([here[0], here[1], CUBE_CARRY_Z])
+            return list(
+                line_segments(
+                    s, robot, target, yaw, PITCH_DOWN, 1.0, spacing=0.05, pitch_offsets=(0.0,)
+                )
+            )
+
+        plan: list[SegmentSource] = []
+        b0 = base_pose(state, robot)
+        if float(np.abs(b0 - goal).max()) > 0.03:
+            plan.append(self._drive(goal, arm_joints(state, robot), 0.0, 0.02))
+        grip = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
+        return [*plan, reach_above, descend, grip, lift]
+
+
+class PlaceCubeController(_ShelfController):
+    """Drop the held cube into the green bin. Objects: ``(robot, cube)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
+    params_doc = (
+        "(u, v): release 0.08·(2u − 1) and 0.12·(2v − 1) metres from the green bin's centre "
+        "along its x and y axes, with the pinch point 0.6 m high."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") >= CLOSED
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        ctx: ScoopContext = self.context
+        robot = self.robot
+        frame = np.asarray(ctx.env.regions.transform(state, TARGET_REGION))  # type: ignore[attr-defined]
+        u, v = (float(x) for x in self.params)
+        spot = frame[:3, :3] @ np.array([SPOT[0] * (2 * u - 1), SPOT[1] * (2 * v - 1), 0.0])
+        spot = spot + frame[:3, 3]
+        target = np.array([spot[0], spot[1], CUBE_CARRY_Z])
+        goal = np.array([CUBE_BASE_X, float(spot[1]), 0.0])
+        yaw = float(np.arctan2(target[1] - goal[1], target[0] - goal[0]))
+
+        def carry(s: ObjectCentricState) -> list[SegmentSource]:
+            return list(
+                line_segments(
+                    s, robot, target, yaw, PITCH_DOWN, 1.0, spacing=0.06, arm_tol=0.05,
+                    final_tol=0.02, pitch_offsets=(0.0,),
+                )
+            )  # fmt: skip
+
+        drive = self._drive(goal, arm_joints(state, robot), 1.0, 0.03)
+        release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
+        return [drive, carry, release]
+
+
+def create_model(env: ObjectCentricEnv) -> PlanningModel:
+    """The ScoopPour3D planning model (cube by cube with the gripper; see the module docstring)."""
+    ctx = scoop_context(env)
+    robot = ctx.robot
+    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
+    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    InSource = Predicate("InSource", (MOVABLE_TYPE,))
+    InTarget = Predicate("InTarget", (MOVABLE_TYPE,))
+
+    def abstraction(s: ObjectCentricState) -> frozenset[GroundAtom]:
+        atoms: set[GroundAtom] = set()
+        if s.get(robot, "pos_gripper") < CLOSED:
+            atoms.add(HandEmpty.ground([robot]))
+        on = env.goal_atoms(s)  # type: ignore[attr-defined]
+        for c in ctx.cubes:
+            if holding_cube(ctx, s, c):
+                atoms.add(Holding.ground([robot, c]))
+            elif on[f"on({c.name}, {TARGET_REGION})"]:
+                atoms.add(InTarget.ground([c]))
+            else:
+                atoms.add(InSource.ground([c]))
+        return frozenset(atoms)
+
+    r = Variable("?robot", ROBOT_TYPE)
+    c = Variable("?cube", MOVABLE_TYPE)
+    pick = LiftedOperator(
+        "Pick",
+        (r, c),
+        frozenset({HandEmpty.lift([r]), InSource.lift([c])}),
+        frozenset({Holding.lift([r, c])}),
+        frozenset({HandEmpty.lift([r]), InSource.lift([c])}),
+    )
+    place = LiftedOperator(
+        "Place",
+        (r, c),
+        frozenset({Holding.lift([r, c])}),
+        frozenset({HandEmpty.lift([r]), InTarget.lift([c])}),
+        frozenset({Holding.lift([r, c])}),
+    )
+
+    def goal(s: ObjectCentricState) -> frozenset[GroundAtom]:
+        del s
+        return frozenset(InTarget.ground([cube]) for cube in ctx.cubes)
+
+    return PlanningModel(
+        name="scoop_pour3d",
+        env=env,
+        types=(ROBOT_TYPE, MOVABLE_TYPE),
+        predicates=(HandEmpty, Holding, InSource, InTarget),
+        skills=(Skill(pick, PickCubeController, ctx), Skill(place, PlaceCubeController, ctx)),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        objects_fn=lambda s: [robot, *ctx.cubes],
+        max_skill_horizon=200,
+        max_episode_steps=env.spec.max_episode_steps if env.spec is not None else None,
+        monotone_predicates=frozenset({"InTarget"}),
+    )
 
 
 __all__: Sequence[str] = [
     "GraspScoopController",
+    "PickCubeController",
+    "PlaceCubeController",
     "ScoopContext",
     "abstract_atoms",
+    "create_model",
     "handle_centre",
     "holding_scoop",
     "scoop_context",
