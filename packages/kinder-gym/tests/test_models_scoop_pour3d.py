@@ -1,6 +1,6 @@
-"""ScoopPour3D (MuJoCo) skills: the concepts on edited states and the GraspScoop skill reaching
-HoldingScoop from seeded states. There is no complete planning model for this family yet (see
-the module docstring of ``kinder_gym.models.dynamic3d.scoop_pour3d``)."""
+"""ScoopPour3D (MuJoCo): the concepts on edited states, the GraspScoop skill reaching
+HoldingScoop, the cube Pick/Place skills reaching their operators' predictions, and the planner
+solving a seeded instance (see ``kinder_gym.models.dynamic3d.scoop_pour3d``)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import pytest
 pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
+from kinder_gym.models import create_model
 from kinder_gym.models.dynamic3d.scoop_pour3d import (
     GraspScoopController,
     abstract_atoms,
@@ -86,3 +87,52 @@ def test_grasp_scoop_reaches_holding(env, seed: int) -> None:
     # Not initiable with closed fingers.
     with pytest.raises(SkillFailure, match="not initiable"):
         execute_skill(controller, final, params, env.transition, 10)
+
+
+def atoms(model, state) -> set[str]:
+    return {str(a) for a in model.abstract(state)}
+
+
+def test_model_predicates_on_edited_states(env) -> None:
+    model = create_model(env)
+    state = env.reset(seed=0)[0]
+    cubes = [f"cube_{i}" for i in range(10)]
+    start = {"(HandEmpty robot)"} | {f"(InSource {c})" for c in cubes}
+    assert atoms(model, state) == start
+    assert {str(a) for a in model.goal(state)} == {f"(InTarget {c})" for c in cubes}
+    frame = env.regions.transform(state, "target_bin_region")
+    moved = state.copy()
+    for feature, value in zip(("x", "y", "z"), frame[:3, 3], strict=True):
+        moved.set(env.objects["cube_3"], feature, value)
+    assert atoms(model, moved) == start - {"(InSource cube_3)"} | {"(InTarget cube_3)"}
+
+
+def test_pick_and_place_reach_their_predictions(env) -> None:
+    model = create_model(env)
+    state = env.reset(seed=1)[0]
+    rng = np.random.default_rng(1)
+    ops = {o.name: o for o in model.ground_operators(state)}
+    for name in ("Pick(robot, cube_4)", "Place(robot, cube_4)"):
+        before = model.abstract(state)
+        gs = model.skill(ops[name])
+        for _ in range(3):
+            params = gs.controller.sample_parameters(state, rng)
+            try:
+                out = execute_skill(gs.controller, state, params, env.transition, 200)
+            except SkillFailure:
+                continue
+            if out.finished and model.abstract(out.states[-1]) == ops[name].apply(before):
+                high = env.action_space.high
+                assert all(np.all(np.abs(a) <= high + 1e-9) for a in out.actions)
+                state = out.states[-1]
+                break
+        else:
+            pytest.fail(f"{name} did not reach its prediction in 3 samples")
+    assert env.goal_atoms(state)["on(cube_4, target_bin_region)"]
+
+
+def test_planner_solves_a_seeded_instance(env) -> None:
+    from kinder_bench.baselines.bilevel_planning import plan_reaches_goal
+
+    solved, _ = plan_reaches_goal(env, seed=0)
+    assert solved
