@@ -51,13 +51,13 @@ drive the base (facing the island, +x) to 0.35 + 0.15·dist m short of the handl
 x and 0.1·(2·side − 1) m beside it along y, reach 12 cm above the handle with the gripper
 pointing straight down and its fingers closing across the handle, descend along a straight line
 to the handle (pinch point 2 mm below its top face: the pads reach 2.5 cm below the pinch point,
-so they stop 3 mm above the island top), close, and lift the scoop 12 cm. The gripper's heading
-is the handle axis direction nearer the base's heading (the wrist turns the least). Built on the
+so they stop 3 mm above the island top), close, and lift the scoop 12 cm. The gripper heads
+from the cup towards the handle's free end. Built on the
 segment controller of :mod:`kinder_gym.models.dynamic3d.tidybot` and Shelf3D's base driving.
 
-Limits (why there is no Scoop/Pour skill): the cubes lie spread over the bin floor (10 of
-them over about 15 × 15 cm at o10) and the scoop's mouth is 5 × 5 cm with 4 cm walls, so filling
-it needs a shovel stroke: the cup's lip on the bin floor, its mouth facing the stroke, dragged,
+Limits (why there is no Scoop/Pour skill): the cubes lie spread over the bin floor (10 of them
+over about 15 × 15 cm at o10) and the scoop's mouth is 5 × 5 cm with 4 cm walls, so filling it
+needs a shovel stroke: the cup's lip on the bin floor, its mouth facing the stroke, dragged,
 then turned level, closed-loop on the count of cubes inside. A wall's rim is lower than its
 bottom edge only when the cup is tipped more than 90° from level, so the stroke needs the scoop
 turned past 90°. With this top-down grasp that is the gripper pointing above the horizontal,
@@ -85,12 +85,12 @@ the mouth turned up while still moving, or a deeper tip than the arm reaches at 
 was not found in the time available, nor was this prototype turned into a tested skill. The pour
 (a tilt over the green bin, closed-loop on the cubes leaving) and the operators with a monotone
 count predicate were not built either. Even once they are, the cost of the env means BP at the
-larger variants cannot refine a plan within its 60 s budget however good the skills: measured
+largest variant cannot refine a plan within its 60 s budget however good the skills: measured
 here (``nice -n 10``, load about 9 on the shared 2-core machine, zero actions from the seed-0
 reset) a transition takes 28 ms at o10 and 248 ms at o100 and an o100 reset 2.6 s (an earlier
-measurement: 34 ms, 286 ms, 3.5 s), so at o100 60 s buys about 240 simulated steps, about four
-GraspScoop runs (60-110 steps each) and no scoop-pour pass. Upstream kindergarden 0.2.5 has no
-BP model for this family (``/work/shared/spec/baselines.md``).
+measurement: 34 ms, 286 ms, 3.5 s), so at o100 60 s buys about 240 simulated steps: three or
+four cubes moved one by one, and no scoop-pour pass. Upstream kindergarden 0.2.5 has no BP model
+for this family (``/work/shared/spec/baselines.md``).
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
 
