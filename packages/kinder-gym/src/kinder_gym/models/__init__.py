@@ -35,6 +35,7 @@ MODELS: dict[str, str] = {
     "SweepSimple3D": "kinder_gym.models.dynamic3d.sweep_simple3d:create_model",
     "Rearrange3D": "kinder_gym.models.dynamic3d.rearrange3d:create_model",
     "SortClutteredBlocks3D": "kinder_gym.models.dynamic3d.sort_cluttered_blocks3d:create_model",
+    "ScoopPour3D": "kinder_gym.models.dynamic3d.scoop_pour3d:create_model",
     "Obstruction2D": "kinder_gym.models.kinematic2d.obstruction2d:create_model",
     "ClutteredRetrieval2D": "kinder_gym.models.kinematic2d.clutteredretrieval2d:create_model",
     "ClutteredStorage2D": "kinder_gym.models.kinematic2d.clutteredstorage2d:create_model",

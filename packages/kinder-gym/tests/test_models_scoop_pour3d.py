@@ -1,0 +1,138 @@
+"""ScoopPour3D (MuJoCo): the concepts on edited states, the GraspScoop skill reaching
+HoldingScoop, the cube Pick/Place skills reaching their operators' predictions, and the planner
+solving a seeded instance (see ``kinder_gym.models.dynamic3d.scoop_pour3d``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("kinder_garden3d")
+
+from kinder_core import make_object_centric
+from kinder_gym.models import create_model
+from kinder_gym.models.dynamic3d.scoop_pour3d import (
+    GraspScoopController,
+    abstract_atoms,
+    handle_centre,
+    scoop_context,
+)
+from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position
+from kinder_gym.skills import SkillFailure, execute_skill
+
+
+@pytest.fixture(scope="module")
+def env():
+    e = make_object_centric("kinder/ScoopPour3D-o10-v0")
+    yield e
+    e.close()
+
+
+def test_concepts_on_edited_states(env) -> None:
+    state = env.reset(seed=0)[0]
+    ctx = scoop_context(env)
+    assert abstract_atoms(ctx, state) == {"(HandEmpty robot)"}
+    # A cube moved into the green bin's goal region counts as InTarget.
+    frame = env.regions.transform(state, "target_bin_region")
+    moved = state.copy()
+    for feature, value in zip(("x", "y", "z"), frame[:3, 3], strict=True):
+        moved.set(ctx.cubes[0], feature, value)
+    assert abstract_atoms(ctx, moved) == {"(HandEmpty robot)", f"(InTarget {ctx.cubes[0].name})"}
+    # Closed fingers away from the handle hold nothing.
+    closed = state.copy()
+    closed.set(ctx.robot, "pos_gripper", 0.8)
+    assert abstract_atoms(ctx, closed) == set()
+
+
+def test_handle_centre_is_on_the_handle_side(env) -> None:
+    state = env.reset(seed=0)[0]
+    ctx = scoop_context(env)
+    pos = np.asarray(state[ctx.scoop][:3])
+    h = handle_centre(state, ctx.scoop)
+    assert abs(np.linalg.norm(h[:2] - pos[:2]) - 0.025) < 1e-3
+    assert h[2] == pytest.approx(pos[2] + 0.01, abs=1e-3)
+
+
+def test_context_rejects_other_envs() -> None:
+    other = make_object_centric("kinder/BalanceBeam3D-o3-v0")
+    try:
+        with pytest.raises(ValueError, match="scoop_0"):
+            scoop_context(other)
+    finally:
+        other.close()
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_grasp_scoop_reaches_holding(env, seed: int) -> None:
+    state = env.reset(seed=seed)[0]
+    ctx = scoop_context(env)
+    controller = GraspScoopController((ctx.robot, ctx.scoop), ctx)
+    rng = np.random.default_rng(seed)
+    for _ in range(3):
+        params = controller.sample_parameters(state, rng)
+        try:
+            out = execute_skill(controller, state, params, env.transition, 400)
+        except SkillFailure:
+            continue
+        if out.finished:
+            break
+    else:
+        pytest.fail("GraspScoop did not finish in 3 samples")
+    final = out.states[-1]
+    assert abstract_atoms(ctx, final) == {"(HoldingScoop robot scoop_0)"}
+    high = env.action_space.high
+    assert all(np.all(np.abs(a) <= high + 1e-9) for a in out.actions)
+    pinch = pinch_position(base_pose(final, ctx.robot), arm_joints(final, ctx.robot))
+    assert np.linalg.norm(pinch - handle_centre(final, ctx.scoop)) < 0.02
+    # Not initiable with closed fingers.
+    with pytest.raises(SkillFailure, match="not initiable"):
+        execute_skill(controller, final, params, env.transition, 10)
+
+
+def atoms(model, state) -> set[str]:
+    return {str(a) for a in model.abstract(state)}
+
+
+def test_model_predicates_on_edited_states(env) -> None:
+    model = create_model(env)
+    state = env.reset(seed=0)[0]
+    cubes = [f"cube_{i}" for i in range(10)]
+    start = {"(HandEmpty robot)"} | {f"(InSource {c})" for c in cubes}
+    assert atoms(model, state) == start
+    assert {str(a) for a in model.goal(state)} == {f"(InTarget {c})" for c in cubes}
+    frame = env.regions.transform(state, "target_bin_region")
+    moved = state.copy()
+    for feature, value in zip(("x", "y", "z"), frame[:3, 3], strict=True):
+        moved.set(env.objects["cube_3"], feature, value)
+    assert atoms(model, moved) == start - {"(InSource cube_3)"} | {"(InTarget cube_3)"}
+
+
+def test_pick_and_place_reach_their_predictions(env) -> None:
+    model = create_model(env)
+    state = env.reset(seed=1)[0]
+    rng = np.random.default_rng(1)
+    ops = {o.name: o for o in model.ground_operators(state)}
+    for name in ("Pick(robot, cube_4)", "Place(robot, cube_4)"):
+        before = model.abstract(state)
+        gs = model.skill(ops[name])
+        for _ in range(3):
+            params = gs.controller.sample_parameters(state, rng)
+            try:
+                out = execute_skill(gs.controller, state, params, env.transition, 200)
+            except SkillFailure:
+                continue
+            if out.finished and model.abstract(out.states[-1]) == ops[name].apply(before):
+                high = env.action_space.high
+                assert all(np.all(np.abs(a) <= high + 1e-9) for a in out.actions)
+                state = out.states[-1]
+                break
+        else:
+            pytest.fail(f"{name} did not reach its prediction in 3 samples")
+    assert env.goal_atoms(state)["on(cube_4, target_bin_region)"]
+
+
+def test_planner_solves_a_seeded_instance(env) -> None:
+    from kinder_bench.baselines.bilevel_planning import plan_reaches_goal
+
+    solved, _ = plan_reaches_goal(env, seed=0)
+    assert solved
