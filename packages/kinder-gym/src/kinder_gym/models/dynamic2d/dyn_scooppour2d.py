@@ -42,6 +42,7 @@ sooner) is the next step.
 
 from __future__ import annotations
 
+import abc
 import math
 from collections.abc import Callable, Sequence
 
@@ -101,8 +102,9 @@ class _PhasedController(Controller):
     when it starts. A step that should move the base or arm but does not (a static contact
     reverted it) ends the current target."""
 
+    @abc.abstractmethod
     def phases(self) -> list[Phase]:
-        raise NotImplementedError
+        """The skill's phases, in order (each subclass defines its own)."""
 
     def reset(self, state: ObjectCentricState, params: Sequence[float] | FloatArray) -> None:
         super().reset(state, params)

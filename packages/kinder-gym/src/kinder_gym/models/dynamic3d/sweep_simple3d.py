@@ -53,6 +53,7 @@ Imports kinder_garden3d (the ``[3d]`` extra).
 
 from __future__ import annotations
 
+import abc
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -207,11 +208,11 @@ def _route(
 class _Controller(_ShelfController):
     """Shared: routes, and parameter samples whose standoff and route are clear."""
 
+    @abc.abstractmethod
     def geometry(
         self, state: ObjectCentricState, params: FloatArray
     ) -> tuple[FloatArray, float, list[SegmentSource]]:
         """The base goal, heading and drive segments for ``params`` (SkillFailure: blocked)."""
-        raise NotImplementedError
 
     def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
         """Uniform, redrawn (up to ``SAMPLE_TRIES`` times) while the standoff or the base's
