@@ -15,6 +15,7 @@ from kinder_bench.baselines.bilevel_planning import (
     BilevelPlanner,
     BilevelPlanningAgent,
     BilevelPlanningArgs,
+    plan_episode,
     plan_reaches_goal,
     use_model,
 )
@@ -174,6 +175,27 @@ def test_args_are_validated() -> None:
         BilevelPlanningArgs(search="dfs")
     with pytest.raises(ValueError, match="samples_per_step"):
         BilevelPlanningArgs(samples_per_step=0)
+    with pytest.raises(ValueError, match="max_model_steps"):
+        BilevelPlanningArgs(max_model_steps=-1)
+
+
+def test_model_step_budget_is_deterministic() -> None:
+    env = make_object_centric("kinder/StickButton2D-b3-v0")
+    x0, _ = env.reset(seed=0)
+    free, free_stats = plan_episode(env, x0, BilevelPlanningArgs(planning_timeout=math.inf), seed=0)
+    assert free is not None and not free_stats.timed_out
+    # A budget that the call does not reach changes nothing.
+    roomy = BilevelPlanningArgs(planning_timeout=math.inf, max_model_steps=free_stats.model_steps)
+    same, _ = plan_episode(env, x0, roomy, seed=0)
+    assert same is not None and len(same.actions) == len(free.actions)
+    assert all(np.array_equal(a, b) for a, b in zip(same.actions, free.actions, strict=True))
+    # One step of budget: the first rollout runs, no second starts, and the call gives up the
+    # same way every time (a wall-clock budget would cut it wherever the machine was).
+    tight = BilevelPlanningArgs(planning_timeout=math.inf, max_model_steps=1)
+    runs = [plan_episode(env, x0, tight, seed=0) for _ in range(2)]
+    for plan, stats in runs:
+        assert plan is None and stats.timed_out and stats.skill_samples == 1
+    assert runs[0][1].model_steps == runs[1][1].model_steps > 0
 
 
 def test_agent_on_toy_env_replans_after_divergence() -> None:

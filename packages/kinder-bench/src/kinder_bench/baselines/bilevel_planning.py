@@ -34,7 +34,12 @@ agent is open-loop (no monitoring). When planning fails, the call that planned (
 :meth:`act`) raises :class:`~kinder_bench.agents.base.AgentFailure`; the runner counts the time
 of calls that raise, so the failed planning time is part of the episode's inference time.
 
-Everything random comes from the agent's seeded RNG, so an episode's plan is reproducible.
+Everything random comes from the agent's seeded RNG, so an episode's plan is reproducible as
+long as no planning call reaches ``planning_timeout``. That budget is wall-clock seconds, as in the
+paper, so where a call is cut off depends on the machine's speed and load: the same seed can then
+give a different plan (or none) on a busier machine. For runs that must reproduce exactly in any
+process, bound the planner by simulated env steps instead (``max_model_steps``, counted over every
+skill rollout of the call) and lift the wall-clock budget (``planning_timeout=inf``).
 """
 
 from __future__ import annotations
@@ -84,7 +89,13 @@ class BilevelPlanningArgs:
     max_skill_horizon: int = 0
     """Most env steps per skill execution; 0: the env model's own default."""
     planning_timeout: float = 60.0
-    """Wall-clock seconds for one planning call (abstract search and refinement together)."""
+    """Wall-clock seconds for one planning call (abstract search and refinement together);
+    ``inf`` for no wall-clock limit."""
+    max_model_steps: int = 0
+    """Simulated env steps one planning call may spend on skill rollouts: once they are spent,
+    no further rollout starts and the call gives up like a timed-out one; 0: no limit. Unlike
+    ``planning_timeout`` it does not depend on the machine, so the episodes it cuts off
+    reproduce exactly."""
     replan_on_divergence: bool = True
     """Plan again when the observed state is not the state the next action was planned from."""
     divergence_atol: float = 1e-6
@@ -105,6 +116,7 @@ class BilevelPlanningArgs:
             (self.samples_per_step >= 1, "samples_per_step must be >= 1"),
             (self.max_skill_horizon >= 0, "max_skill_horizon must be >= 0"),
             (self.planning_timeout > 0, "planning_timeout must be > 0"),
+            (self.max_model_steps >= 0, "max_model_steps must be >= 0 (0: no limit)"),
             (self.divergence_atol >= 0, "divergence_atol must be >= 0"),
             (self.max_replans >= 0, "max_replans must be >= 0"),
             (self.refinement_rounds >= 1, "refinement_rounds must be >= 1"),
@@ -256,6 +268,10 @@ class BilevelPlanner:
             return RefinedPlan(states, actions, plan, skills, used)
         return None
 
+    def _over_step_budget(self) -> bool:
+        limit = self.args.max_model_steps
+        return 0 < limit <= self.stats.model_steps
+
     def _accept(self, reached: frozenset[GroundAtom], expected: frozenset[GroundAtom]) -> bool:
         return abstract_match(self.model, reached, expected)
 
@@ -283,7 +299,7 @@ class BilevelPlanner:
         budget = None if self._max_steps is None else self._max_steps - len(actions)
         horizon = self.horizon if budget is None else min(self.horizon, budget)
         for _ in range(1 if deterministic else self.args.samples_per_step):
-            if time.perf_counter() > deadline:
+            if time.perf_counter() > deadline or self._over_step_budget():
                 raise _Timeout
             gs = model.skill(op)  # a fresh controller per sample
             self.stats.skill_samples += 1
