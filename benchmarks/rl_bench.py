@@ -220,6 +220,8 @@ def main() -> None:
                 f"stopped after {a.stop_after_minutes} minutes; rerun to continue", file=sys.stderr
             )
             break
+        if cells.get(cell_key(algo, env_id, reward, a.steps, seed), {}).get("status") == "done":
+            continue  # trained and evaluated in an earlier run
         run_cell(a.out, algo, env_id, reward, seed, a, cells)
     table = ""
     if (a.out / "eval" / "results.jsonl").exists():
