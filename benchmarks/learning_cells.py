@@ -144,7 +144,12 @@ def main(method: str, argv: list[str] | None = None) -> int:
         print("no datasets found; nothing to do", file=sys.stderr)
         return 1
     args.out.mkdir(parents=True, exist_ok=True)
-    write_json(args.out / "cells.json", cells)
+    # Cells of envs not named in this call (earlier calls) stay; this call's replace theirs.
+    path = args.out / "cells.json"
+    named = {c["env"] for c in cells}
+    earlier = json.loads(path.read_text()) if path.exists() else []
+    cells = [c for c in earlier if c["env"] not in named] + cells
+    write_json(path, cells)
     lines = ["| env | demos | frames | training budget | samples/s |", "|---|---|---|---|---|"]
     lines += [
         f"| {c['env']} | {c['demos']} | {c['frames']} | {c['budget']} | {c['samples_per_s']} |"
