@@ -78,3 +78,47 @@ def test_dynpushpullhook2d_skills_chain_to_the_goal() -> None:
     assert hook_above(out.states[-1], env.hook, env.target_block)
     op, out = _run(model, out.states[-1], "HookDown(robot, hook, target_block)")
     assert env.goal_reached(out.states[-1])
+
+
+def _grasp_hook_controller(env, state, params):  # type: ignore[no-untyped-def]
+    model = create_model(env)
+    op = next(o for o in model.ground_operators(state) if o.name == "GraspHook(robot, hook)")
+    controller = model.skill(op).controller
+    controller.params = np.asarray(params, dtype=np.float64)
+    return model, op, controller
+
+
+def test_grasp_hook_finds_a_route_and_an_arm_that_fit() -> None:
+    from kinder_gym.models.dynamic2d.kin_robot import ARM_LENGTH, BASE_RADIUS, kin_config
+
+    env = make_object_centric("kinder/DynPushPullHook2D-o5-v0")
+    # Seed 12: the route through the fixed turning spot (0.55, 0.55) would touch something, so
+    # the skill turns elsewhere; seed 24: the bar's free end is near
+    # the left wall, so only a shorter arm leaves the base room on the bar's axis.
+    for seed in (12, 24):
+        state = env.reset(seed=seed)[0]
+        model, op, controller = _grasp_hook_controller(env, state, [0.5, 0.5])
+        robot = env.robot
+        q = kin_config(state, robot)
+        wps = controller.waypoints(state)
+        br, al = state[robot][BASE_RADIUS], state[robot][ARM_LENGTH]
+        assert wps[2].arm < br + 0.5 * (al - br)  # shorter than the old mapping's
+        assert min(wp.x for wp in wps) - br > env.config.world_min_x
+        if seed == 12:
+            assert (wps[0].x, wps[0].y) != (max(q[0], 0.55), max(q[1], 0.55)) or (
+                wps[0].theta != q[2]
+            )
+        _, out = _run(model, state, "GraspHook(robot, hook)", seed=seed)
+        assert model.abstract(out.states[-1]) == op.apply(model.abstract(state))
+
+
+def test_grasp_hook_says_when_there_is_no_room_beyond_the_free_end() -> None:
+    import pytest
+
+    from kinder_gym.skills import SkillFailure
+
+    env = make_object_centric("kinder/DynPushPullHook2D-o5-v0")
+    state = env.reset(seed=1)[0]  # the bar's free end lies 0.3 m from the left wall
+    _, _, controller = _grasp_hook_controller(env, state, [0.5, 0.5])
+    with pytest.raises(SkillFailure, match="no room for the robot beyond the bar's free end"):
+        controller.waypoints(state)

@@ -61,6 +61,8 @@ from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 UP = math.pi / 2
+#: Grid spots GraspHook tries for turning to face the bar when the fixed spot does not work.
+TURNING_SPOTS = 12
 
 
 def hook_shape(state: ObjectCentricState, hook: Object) -> WorldShape:
@@ -156,7 +158,9 @@ class GraspHookController(_HookController):
     params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
     params_doc = (
         "(overlap, arm): the fingers cover 0.06 + 0.1·overlap metres of the bar's end; the arm "
-        "is extended to base_radius + arm·(arm_length − base_radius) metres."
+        "is extended to base_radius + arm·(longest − base_radius) metres, where longest is "
+        "arm_length or less: the longest arm with which the approach pose, on the bar's axis "
+        "beyond its free end, keeps the base inside the room below the middle wall."
     )
 
     def waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
@@ -166,7 +170,6 @@ class GraspHookController(_HookController):
         gw, fw, fh = float(v[GRIPPER_BASE_WIDTH]), float(v[FINGER_WIDTH]), float(v[FINGER_HEIGHT])
         open_gap = float(v[GRIPPER_BASE_HEIGHT])
         overlap = 0.06 + 0.1 * float(self.params[0])
-        arm = br + float(self.params[1]) * (al - br)
         hx, hy, hth = (float(c) for c in state[hook][:3])
         w, s1 = state.get(hook, "width"), state.get(hook, "length_side1")
         c, s = math.cos(hth), math.sin(hth)
@@ -174,23 +177,94 @@ class GraspHookController(_HookController):
         def world(lx: float, ly: float) -> tuple[float, float]:
             return hx + c * lx - s * ly, hy + s * lx + c * ly
 
+        # The approach comes along the bar's axis from beyond its free end: near a wall only a
+        # shorter arm leaves the base room there.
+        end_x, end_y = world(-s1, -w / 2)
+        longest = min(al, self._room_beyond(end_x, end_y, -c, -s, br) - 0.06 - gw / 2 - fw)
+        if longest < br:
+            raise SkillFailure("GraspHook: no room for the robot beyond the bar's free end")
+        arm = br + float(self.params[1]) * (longest - br)
         reach = arm + gw / 2 + fw
         gx, gy = world(-s1 + overlap - reach, -w / 2)
         # Pre-grasp: the fingertips 0.06 m short of the bar's end, on its axis.
         px, py = world(-s1 - 0.06 - reach, -w / 2)
         q = kin_config(state, robot)
-        safe = (max(q[0], 0.55), max(q[1], 0.55))
         close_gap = max(2 * fh, w + fh - 0.04)
-        wps = [
-            KinWaypoint(safe[0], safe[1], q[2], q[3], open_gap),
-            KinWaypoint(safe[0], safe[1], wrap(hth), br, open_gap),
-            KinWaypoint(safe[0], safe[1], wrap(hth), arm, open_gap),
+        approach = [
             KinWaypoint(px, py, hth, arm, open_gap),
             KinWaypoint(gx, gy, hth, arm, open_gap, speed=0.5),
             KinWaypoint(gx, gy, hth, arm, close_gap, wait=2),
         ]
+        # The final approach does not depend on the route to it: check it once, first.
+        pre, grasp = ([wp.x, wp.y, wp.theta, wp.arm, wp.gap] for wp in approach[:2])
+        self._check_segment(state, pre, grasp, ())
+        first: SkillFailure | None = None
+        for spot, turn_first in self._turning_spots(state, q):
+            tx, ty = spot
+            if turn_first:  # turn where the robot stands, then move facing the bar
+                route = [
+                    KinWaypoint(q[0], q[1], wrap(hth), br, open_gap),
+                    KinWaypoint(tx, ty, wrap(hth), br, open_gap),
+                ]
+            else:  # move as the robot faces, then turn
+                route = [
+                    KinWaypoint(tx, ty, q[2], q[3], open_gap),
+                    KinWaypoint(tx, ty, wrap(hth), br, open_gap),
+                ]
+            wps = [*route, KinWaypoint(tx, ty, wrap(hth), arm, open_gap), *approach]
+            try:
+                self._check_path(state, q, wps[:-2])
+            except SkillFailure as e:
+                first = first or e
+                continue
+            return wps
+        assert first is not None
+        raise first
+
+    def _room_beyond(self, ex: float, ey: float, ux: float, uy: float, br: float) -> float:
+        """How far (metres) the base centre may go from ``(ex, ey)`` along the unit direction
+        ``(ux, uy)`` and stay inside the room below the middle wall (with a 1 cm margin)."""
+        cfg = self.context.config
+        lo_x, hi_x = cfg.world_min_x + br + 0.01, cfg.world_max_x - br - 0.01
+        lo_y = cfg.world_min_y + br + 0.01
+        hi_y = (cfg.world_min_y + cfg.world_max_y) / 2 - cfg.wall_height / 2 - br - 0.01
+        room = math.inf
+        for e, u, lo, hi in ((ex, ux, lo_x, hi_x), (ey, uy, lo_y, hi_y)):
+            if u > 1e-9:
+                room = min(room, (hi - e) / u)
+            elif u < -1e-9:
+                room = min(room, (lo - e) / u)
+        return room
+
+    def _turning_spots(
+        self, state: ObjectCentricState, q: FloatArray
+    ) -> list[tuple[tuple[float, float], bool]]:
+        """Where the robot may turn to face the bar, each with whether it turns before moving:
+        first the fixed spot (at least 0.55 m from the lower and left walls, moving first),
+        then, when that route touches something, the nearest spots of a grid below the middle
+        wall (a bounded number: every route costs collision checks, per parameter sample)."""
+        cfg = self.context.config
+        robot = self.objects[0]
+        br = float(state[robot][BASE_RADIUS])
+        y_hi = (cfg.world_min_y + cfg.world_max_y) / 2 - cfg.wall_height / 2 - br - 0.02
+        safe = (max(float(q[0]), 0.55), max(float(q[1]), 0.55))
+        grid = [
+            (float(x), float(y))
+            for x in np.arange(cfg.world_min_x + br + 0.05, cfg.world_max_x - br - 0.05, 0.15)
+            for y in np.arange(cfg.world_min_y + br + 0.05, y_hi, 0.15)
+        ]
+        grid.sort(key=lambda p: math.hypot(p[0] - q[0], p[1] - q[1]))
+        spots = [(safe, False), (safe, True)]
+        spots += [(p, turn_first) for p in grid[:TURNING_SPOTS] for turn_first in (False, True)]
+        return spots
+
+    def _check_path(
+        self, state: ObjectCentricState, q: FloatArray, wps: Sequence[KinWaypoint]
+    ) -> None:
+        """SkillFailure when the robot, following ``wps`` from ``q``, would touch something:
+        turns and arm changes are checked in place, moves along their segment."""
         prev = [float(x) for x in q]
-        for wp in wps[:5]:
+        for wp in wps:
             cur = [wp.x, wp.y, wp.theta, wp.arm, wp.gap]
             if abs(wrap(cur[2] - prev[2])) > 1e-9 or abs(cur[3] - prev[3]) > 1e-9:
                 for k in range(1, 9):  # check the turn/extension in place
@@ -208,7 +282,6 @@ class GraspHookController(_HookController):
             else:
                 self._check_segment(state, prev, cur, ())
             prev = cur
-        return wps
 
 
 class PreHookController(_HookController):
