@@ -20,6 +20,14 @@ Operators: ``GraspHook(?robot, ?hook)`` (pre HandEmpty; add HoldingHook; delete 
 ``TargetAtGoal(target_block)``.
 
 Obstructions are not part of the abstraction: the held hook (infinite mass) pushes them aside.
+
+GraspHook's arm length is capped so that the approach pose, on the bar's axis beyond its free
+end, keeps the base inside the room below the middle wall; when the route to the spot where the
+robot turns to face the bar touches something, it tries other spots (nearest first). What limits
+the model (``benchmarks/results/bilevel_planning.md``, "DynPushPullHook2D: where planning
+fails"): the bar is taken only at its free end, so when that end lies near the left wall there is
+no room for the robot at any arm length (about a third of the instances); the rake comes from the
+target's left, so a target near the left wall cannot be raked.
 """
 
 from __future__ import annotations
