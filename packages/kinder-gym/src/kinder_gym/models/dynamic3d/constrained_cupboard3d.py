@@ -1,0 +1,441 @@
+"""The ConstrainedCupboard3D planning model: put 15 cm rods lying on the floor onto given shelves
+of narrow cupboards standing side by side.
+
+Every cupboard is 0.1 m wide with 2 cm side walls, so its opening is 6 cm wide and 0.3 m deep; a
+rod (1.5 × 15 × 1.5 cm) fits only lying along the cupboard's depth, and the open fingers (8.5 cm)
+do not fit in the opening at all. So the robot grasps a rod near one end, along its length, and
+slides it in end first, releasing it with the fingers still outside the opening; the rod's centre
+then lies inside the cupboard (the env's ``on`` test is the centre being in the shelf's goal box).
+
+Concepts:
+
+* ``HandEmpty(robot)``: the fingers are open (measured closure below 0.2).
+* ``Holding(robot, rod)``: the fingers are closed, the rod is off the floor and the pinch point
+  is within 3 cm of the rod's axis segment.
+* ``OnGround(rod)``: not held, on no goal shelf, and the rod's centre is below 5 cm.
+* ``OnShelf(rod, cupboard)``: not held and the rod's centre is in that cupboard's goal region
+  (the env's own region test, so the goal atoms imply the env's goal).
+
+Operators: ``Pick(?robot, ?rod)`` (pre HandEmpty, OnGround; add Holding; delete HandEmpty,
+OnGround) and ``Place(?robot, ?rod, ?cupboard)`` (pre Holding; add HandEmpty, OnShelf; delete
+Holding). Goal: every rod OnShelf on its own goal cupboard, and HandEmpty.
+
+Skills (see :mod:`kinder_gym.models.dynamic3d.tidybot` for how targets are tracked):
+
+* Pick: drive the base straight to a standoff beyond one end of the rod, facing along it (the
+  straight path must keep the chassis clear of the cupboards), while the arm swings to above the
+  sampled grasp point near that end with the gripper pitched 45° down; descend, close, and lift
+  to 10 cm. The rod then points straight ahead of the base.
+* Place: measure where the rod is in the base frame (the grasp is never exact), drive to a pose
+  from which the rod is aligned with the goal cupboard's depth axis and lies 5 cm in front of its
+  opening, turn the hand until the rod is level, raise or lower it until the rod's underside is
+  1.2 cm above the goal shelf, re-measure and drive in until the rod's centre is at the sampled
+  depth, open, and back out.
+
+The skills read the cupboards' poses and goal regions from the state and the env, so every count
+variant works (o1/o2 put every rod on shelf 0 of ``cupboard_1``; o3 and larger put rod *i* into
+``cupboard_i`` at the shelf its region names). Imports kinder_garden3d (the ``[3d]`` extra).
+
+Differences from upstream: upstream KinDER 0.2.5 has no planning model for this family; the
+decomposition (Pick, Place) follows the Shelf3D model.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from gymnasium import spaces
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.dynamic3d.object_types import FIXTURE_TYPE, MOVABLE_TYPE, ROBOT_TYPE
+from kinder_garden3d.robot.description import forward_kinematics
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
+from kinder_gym.models.dynamic3d.shelf3d import (
+    CHASSIS_RADIUS,
+    CLOSED,
+    GRIP_STEPS,
+    PITCH,
+    READY,
+    _segment_rect_distance,
+    _ShelfController,
+    _yaw_of,
+)
+from kinder_gym.models.dynamic3d.tidybot import (
+    CONTINUOUS,
+    MAX_DELTA,
+    Segment,
+    SegmentSource,
+    arm_joints,
+    base_pose,
+    gripper_quat,
+    ik_near,
+    line_segments,
+    pinch_position,
+)
+from kinder_gym.motion_planning import FloatArray, config_delta, wrap_angle
+from kinder_gym.operators import LiftedOperator
+from kinder_gym.skills import Skill, SkillFailure
+
+ROD_PREFIX = "cuboid_"
+#: Height (m) of the pinch point when the fingers close on a 1.5 cm rod lying on the floor.
+GRASP_Z = 0.012
+#: Height (m) of the pinch point while carrying a rod.
+CARRY_Z = 0.10
+#: Height (m) of a held rod's underside above the goal shelf while it is slid in.
+SLIDE_ABOVE_SHELF = 0.012
+#: Largest base step (m, rad per action) while a rod is held: at full speed the rod swings up
+#: about the fingers' closing axis (47° measured on ConstrainedCupboard3D-o1, seed 0).
+CARRY_SPEED = (0.03, 0.05)
+#: Arm joint speed (rad per action) measured while the arm tracks a far target.
+ARM_SPEED = 0.05
+_CONTINUOUS_JOINTS = tuple(int(i) for i in np.flatnonzero(CONTINUOUS))
+#: Distance (m) in front of the opening at which the rod's tip waits before sliding in.
+PRE_PLACE = 0.05
+#: Smallest distance (m) the pinch point keeps in front of the opening: the open fingers are
+#: wider than it.
+FINGER_CLEARANCE = 0.015
+
+
+@dataclass(frozen=True)
+class CupboardContext:
+    """What the ConstrainedCupboard3D controllers need besides the state."""
+
+    env: ObjectCentricEnv
+    robot: Object
+    cupboards: tuple[Object, ...]
+    rods: tuple[Object, ...]
+    #: Goal region of each cupboard that has one.
+    regions: dict[Object, str]
+
+
+class _Cupboard:
+    """A cupboard's opening and goal shelf in a state (fixed per episode)."""
+
+    def __init__(self, ctx: CupboardContext, cupboard: Object, state: ObjectCentricState) -> None:
+        frame = ctx.env.regions.transform(state, ctx.regions[cupboard])  # type: ignore[attr-defined]
+        self.shelf = np.asarray(frame[:3, 3], dtype=np.float64)  # goal shelf top, centre
+        self.front = np.asarray(frame[:2, 1], dtype=np.float64)  # out of the opening
+        params = ctx.env.task.fixtures[cupboard.name].params  # type: ignore[attr-defined]
+        self.depth = float(params["depth"])
+        #: Yaw pointing into the cupboard.
+        self.inward_yaw = math.atan2(-self.front[1], -self.front[0])
+
+
+def _rod_axis(state: ObjectCentricState, rod: Object) -> tuple[FloatArray, FloatArray]:
+    """The rod's centre (x, y, z) and the unit vector (x, y) along its length."""
+    yaw = _yaw_of(np.asarray(state[rod][3:7]))
+    return np.asarray(state[rod][:3], dtype=np.float64), np.array([-math.sin(yaw), math.cos(yaw)])
+
+
+def _rod_length(state: ObjectCentricState, rod: Object) -> float:
+    return float(state.get(rod, "bb_y"))
+
+
+def _clear_of_cupboards(
+    ctx: CupboardContext, state: ObjectCentricState, a: FloatArray, b: FloatArray
+) -> bool:
+    """Whether the chassis driving straight from ``a`` to ``b`` stays 5 cm clear of every
+    cupboard."""
+    for cupboard in ctx.cupboards:
+        params = ctx.env.task.fixtures[cupboard.name].params  # type: ignore[attr-defined]
+        yaw = _yaw_of(np.asarray(state[cupboard][3:7]))
+        axes = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+        centre = np.array([state.get(cupboard, "x"), state.get(cupboard, "y")])
+        half = np.array([float(params["length"]) / 2, float(params["depth"]) / 2])
+        if _segment_rect_distance(a, b, centre, axes, half) <= CHASSIS_RADIUS + 0.05:
+            return False
+    return True
+
+
+class PickController(_ShelfController):
+    """Pick a rod off the floor near one of its ends. Objects: ``(robot, rod)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
+    params_doc = (
+        "(end, grip, dist): approach from the rod's end along +y of its frame if end < 0.5, "
+        "else from the other end; close 0.01 + 0.02·grip metres in from that end; the base "
+        "stops 0.50 + 0.10·dist metres short of the grasp point."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") < CLOSED
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        ctx: CupboardContext = self.context
+        robot, rod = self.objects
+        centre, axis = _rod_axis(state, rod)
+        if float(self.params[0]) < 0.5:
+            axis = -axis  # approach from the +axis end, facing -axis
+        # `axis` points from the grasped end towards the rod's centre: the heading.
+        end = centre[:2] - axis * _rod_length(state, rod) / 2
+        grip = 0.01 + 0.02 * float(self.params[1])
+        dist = 0.50 + 0.10 * float(self.params[2])
+        heading = math.atan2(axis[1], axis[0])
+        point = end + grip * axis
+        goal = np.array([*(point - dist * axis), heading])
+        b0 = base_pose(state, robot)
+        if not _clear_of_cupboards(ctx, state, b0[:2], goal[:2]):
+            raise SkillFailure("Pick: the straight base path passes a cupboard")
+        quat = gripper_quat(heading, PITCH)
+        grasp = np.array([*point, GRASP_Z])
+        above = np.array([*(point - 0.01 * axis), 0.15])
+
+        def descend(s: ObjectCentricState) -> list[Segment]:
+            return line_segments(s, robot, grasp, heading, PITCH, 0.0)
+
+        def lift(s: ObjectCentricState) -> list[Segment]:
+            here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
+            target = np.array([here[0], here[1], CARRY_Z])
+            return line_segments(s, robot, target, heading, PITCH, 1.0, spacing=0.04)
+
+        close = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
+        # The arm swings to above the grasp point while the base drives (the chassis path is
+        # checked; the hand passes 15 cm above the floor, over the rods).
+        ready = _nearest_ik(above, quat, goal, arm_joints(state, robot))
+        drive = self._drive(goal, ready, 0.0, 0.01)
+        turn = _arm_turn(arm_joints(state, robot), ready)
+        drive = replace(drive, max_steps=max(drive.max_steps, math.ceil(turn / ARM_SPEED) + 40))
+        return [drive, descend, close, lift]
+
+
+def _arm_turn(a: FloatArray, b: FloatArray) -> float:
+    """The largest joint rotation (rad) from arm joints ``a`` to ``b``."""
+    return float(np.abs(config_delta(a, b, _CONTINUOUS_JOINTS)).max())
+
+
+def _nearest_ik(
+    position: FloatArray, quat: FloatArray, base: FloatArray, arm: FloatArray
+) -> FloatArray:
+    """Of the IK solutions found from the current arm and from READY, the one nearer the arm:
+    from the arm of the last Place, READY's solution is often a wrist flip (3 rad, 60 steps)
+    away."""
+    found = []
+    for seed in (arm, READY):
+        try:
+            found.append(ik_near(position, quat, base, seed))
+        except SkillFailure:
+            continue
+    if not found:
+        raise SkillFailure(f"no IK solution for the pinch point at {np.round(position, 3)}")
+    return min(found, key=lambda q: _arm_turn(arm, q))
+
+
+def _rod_in_base(state: ObjectCentricState, robot: Object, rod: Object) -> tuple[FloatArray, float]:
+    """The held rod's centre (x, y) in the base frame, and the angle of its axis (the direction
+    pointing away from the base) relative to the base heading."""
+    base = base_pose(state, robot)
+    centre, axis = _rod_axis(state, rod)
+    c, s = math.cos(base[2]), math.sin(base[2])
+    rel = centre[:2] - base[:2]
+    local = np.array([c * rel[0] + s * rel[1], -s * rel[0] + c * rel[1]])
+    angle = wrap_angle(math.atan2(axis[1], axis[0]) - float(base[2]))
+    if abs(angle) > math.pi / 2:  # the half of the axis that points away from the base
+        angle = wrap_angle(angle + math.pi)
+    return local, angle
+
+
+def _rod_elevation(state: ObjectCentricState, rod: Object, heading: float) -> float:
+    """Angle (rad) by which the half of the rod pointing along ``heading`` rises above the
+    horizontal."""
+    w, x, y, z = (float(v) for v in state[rod][3:7])
+    axis = np.array([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)])
+    if axis[0] * math.cos(heading) + axis[1] * math.sin(heading) < 0:
+        axis = -axis
+    return math.asin(float(np.clip(axis[2], -1.0, 1.0)))
+
+
+def _rod_bottom(state: ObjectCentricState, rod: Object) -> float:
+    """Height (m) of the rod's lowest point."""
+    w, x, y, z = (float(v) for v in state[rod][3:7])
+    rot = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    half = np.array([state.get(rod, f) for f in ("bb_x", "bb_y", "bb_z")]) / 2
+    return float(state.get(rod, "z") - np.abs(rot[2]) @ half)
+
+
+def _gripper_pitch(state: ObjectCentricState, robot: Object) -> float:
+    """Angle (rad) of the gripper's approach axis below the horizontal."""
+    tf = forward_kinematics(tuple(base_pose(state, robot)), arm_joints(state, robot))["pinch_site"]
+    return math.asin(float(np.clip(-tf[2, 2], -1.0, 1.0)))
+
+
+def _base_for_rod(local: FloatArray, angle: float, spot: FloatArray, yaw: float) -> FloatArray:
+    """The base pose that puts a rod held at ``(local, angle)`` with its centre at ``spot`` and
+    its axis along ``yaw``."""
+    heading = wrap_angle(yaw - angle)
+    c, s = math.cos(heading), math.sin(heading)
+    offset = np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
+    return np.array([*(spot - offset), heading])
+
+
+class PlaceController(_ShelfController):
+    """Slide the held rod onto the goal shelf of a cupboard. Objects: ``(robot, rod, cupboard)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
+    params_doc = (
+        "(depth,): the rod's centre ends 0.02 + 0.05·depth metres inside the opening, or less "
+        "where the pinch point would otherwise come within 1.5 cm of the opening."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "pos_gripper") >= CLOSED
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        ctx: CupboardContext = self.context
+        robot, rod, cupboard = self.objects
+        if cupboard not in ctx.regions:
+            raise SkillFailure(f"Place: {cupboard.name} has no goal region")
+        box = _Cupboard(ctx, cupboard, state)
+        opening = box.shelf[:2] + box.depth / 2 * box.front  # centre of the front edge
+        half = _rod_length(state, rod) / 2
+        wanted = 0.02 + 0.05 * float(self.params[0])
+        local, angle = _rod_in_base(state, robot, rod)
+        # The pinch point lies `reach` behind the rod's centre along the rod.
+        pinch = pinch_position(base_pose(state, robot), arm_joints(state, robot))
+        reach = float(np.linalg.norm(np.asarray(state[rod][:2]) - pinch[:2]))
+        depth = min(wanted, reach - FINGER_CLEARANCE)
+        if depth < 0.015:
+            raise SkillFailure("Place: the rod is held too near its centre to slide it in")
+        outside = opening + (half + PRE_PLACE) * box.front
+        pre = _base_for_rod(local, angle, outside, box.inward_yaw)
+        b0 = base_pose(state, robot)
+        if not _clear_of_cupboards(ctx, state, b0[:2], pre[:2]):
+            raise SkillFailure("Place: the straight base path to the cupboard passes a cupboard")
+        arm = arm_joints(state, robot)
+
+        def level(s: ObjectCentricState) -> list[Segment]:
+            # Turn the hand about the fingers' closing axis until the rod is level.
+            here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
+            heading = float(base_pose(s, robot)[2])
+            pitch = _gripper_pitch(s, robot) + _rod_elevation(s, rod, heading)
+            return line_segments(s, robot, here, heading, pitch, 1.0, pitch_offsets=(0.0,))
+
+        def to_shelf_height(s: ObjectCentricState) -> list[Segment]:
+            here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
+            heading = float(base_pose(s, robot)[2])
+            target_z = here[2] + box.shelf[2] + SLIDE_ABOVE_SHELF - _rod_bottom(s, rod)
+            pitch = _gripper_pitch(s, robot)
+            return line_segments(s, robot, np.array([*here[:2], target_z]), heading, pitch, 1.0)
+
+        def slide_in(s: ObjectCentricState) -> list[Segment]:
+            local_now, angle_now = _rod_in_base(s, robot, rod)
+            spot = opening - depth * box.front
+            inside = _base_for_rod(local_now, angle_now, spot, box.inward_yaw)
+            back = _base_for_rod(local_now, angle_now, outside, box.inward_yaw)
+            q = arm_joints(s, robot)
+            return [
+                Segment(base=tuple(inside), arm=tuple(q), gripper=1.0, arm_tol=0.05,
+                        base_tol=0.005, max_steps=60, base_speed=CARRY_SPEED),
+                Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS),
+                Segment(base=tuple(back), arm=tuple(q), gripper=0.0, arm_tol=0.05,
+                        base_tol=0.02, max_steps=60),
+            ]  # fmt: skip
+
+        carry = replace(self._drive(pre, arm, 1.0, 0.01), base_speed=CARRY_SPEED)
+        carry = replace(carry, max_steps=math.ceil(carry.max_steps * MAX_DELTA / CARRY_SPEED[0]))
+        return [carry, level, to_shelf_height, slide_in]
+
+
+def _goal_pairs(env: ObjectCentricEnv) -> list[tuple[str, str, str]]:
+    """(rod, region, cupboard) names of every goal atom of the task."""
+    goal_expr = env.task.goal  # type: ignore[attr-defined]
+    specs = env.task.regions  # type: ignore[attr-defined]
+    pairs = []
+    for atom in goal_expr[1] if goal_expr[0] == "and" else [goal_expr]:
+        if atom[0] != "on" or not str(atom[1]).startswith(ROD_PREFIX):
+            raise ValueError(f"ConstrainedCupboard3D model: unsupported goal atom {atom!r}")
+        pairs.append((str(atom[1]), str(atom[2]), str(specs[atom[2]].target)))
+    return pairs
+
+
+def create_model(env: ObjectCentricEnv) -> PlanningModel:
+    """The ConstrainedCupboard3D planning model (any number of rods and cupboards)."""
+    objects: dict[str, Object] = env.objects  # type: ignore[attr-defined]
+    robot_obj = objects["robot"]
+    rods = tuple(sorted(o for n, o in objects.items() if n.startswith(ROD_PREFIX)))
+    cupboards = tuple(sorted(o for n, o in objects.items() if n.startswith("cupboard_")))
+    goal_pairs = _goal_pairs(env)
+    regions = {objects[cup]: region for _, region, cup in goal_pairs}
+    goal_of = {objects[rod]: objects[cup] for rod, _, cup in goal_pairs}
+    ctx = CupboardContext(env, robot_obj, cupboards, rods, regions)
+
+    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
+    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    OnGround = Predicate("OnGround", (MOVABLE_TYPE,))
+    OnShelf = Predicate("OnShelf", (MOVABLE_TYPE, FIXTURE_TYPE))
+
+    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        atoms: set[GroundAtom] = set()
+        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
+        if not closed:
+            atoms.add(HandEmpty.ground([robot_obj]))
+        pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))
+        centres = np.array([np.asarray(state[r][:3]) for r in rods])
+        inside = {
+            cup: env.regions.contains(state, region, centres)  # type: ignore[attr-defined]
+            for cup, region in regions.items()
+        }
+        for i, r in enumerate(rods):
+            centre, axis = _rod_axis(state, r)
+            half = _rod_length(state, r) / 2
+            t = float(np.clip(np.dot(pinch[:2] - centre[:2], axis), -half, half))
+            near = np.array([*(centre[:2] + t * axis), centre[2]])
+            if closed and centre[2] > 0.012 and np.linalg.norm(near - pinch) < 0.03:
+                atoms.add(Holding.ground([robot_obj, r]))
+                continue
+            shelves = [cup for cup in regions if inside[cup][i]]
+            for cup in shelves:
+                atoms.add(OnShelf.ground([r, cup]))
+            if not shelves and centre[2] < 0.05:
+                atoms.add(OnGround.ground([r]))
+        return frozenset(atoms)
+
+    r = Variable("?robot", ROBOT_TYPE)
+    c = Variable("?rod", MOVABLE_TYPE)
+    f = Variable("?cupboard", FIXTURE_TYPE)
+    pick = LiftedOperator(
+        "Pick",
+        (r, c),
+        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
+        frozenset({Holding.lift([r, c])}),
+        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
+    )
+    place = LiftedOperator(
+        "Place",
+        (r, c, f),
+        frozenset({Holding.lift([r, c])}),
+        frozenset({HandEmpty.lift([r]), OnShelf.lift([c, f])}),
+        frozenset({Holding.lift([r, c])}),
+    )
+
+    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        del state
+        return frozenset(
+            {HandEmpty.ground([robot_obj])}
+            | {OnShelf.ground([rod, cup]) for rod, cup in goal_of.items()}
+        )
+
+    goal_cupboards = sorted(regions)
+    return PlanningModel(
+        name="constrained_cupboard3d",
+        env=env,
+        types=(ROBOT_TYPE, MOVABLE_TYPE, FIXTURE_TYPE),
+        predicates=(HandEmpty, Holding, OnGround, OnShelf),
+        skills=(Skill(pick, PickController, ctx), Skill(place, PlaceController, ctx)),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        objects_fn=lambda state: [robot_obj, *goal_cupboards, *rods],
+        max_skill_horizon=400,
+    )
+
+
+__all__: Sequence[str] = ["PickController", "PlaceController", "create_model"]
