@@ -36,8 +36,30 @@ The skills read the cupboards' poses and goal regions from the state and the env
 variant works (o1/o2 put every rod on shelf 0 of ``cupboard_1``; o3 and larger put rod *i* into
 ``cupboard_i`` at the shelf its region names). Imports kinder_garden3d (the ``[3d]`` extra).
 
-Differences from upstream: upstream KinDER 0.2.5 has no planning model for this family; the
-decomposition (Pick, Place) follows the Shelf3D model.
+Parameter spaces: Pick ``(end, grip, dist)`` in [0, 1]³ and Place ``(depth,)`` in [0, 1] (see
+the controllers' ``params_doc``: which end, 1–3 cm from it, a 0.50–0.60 m standoff; the rod's
+centre 2–7 cm inside the opening).
+
+Differences from upstream: upstream KinDER 0.2.5 has no bilevel-planning model for this family
+(baselines.md lists one for Shelf3D only); the decomposition (Pick, Place) follows our Shelf3D
+model.
+
+Measured (``benchmarks/results/bilevel_planning.md``, BP defaults, 60 s planning budget): o1
+1.00 and o6 0.98 at 5 seeds × 10 episodes, o2–o5 1.00 at 1 × 10; o6 plans take about 735 of
+the 1000 steps allowed (about 120 per rod).
+
+Limits and what was found on the way:
+
+* A rod held near one end turns about the fingers' closing axis (the pads are its only pivot):
+  carried at the env's full base speed its far end swung 47° up. The carry is slow (3 cm per
+  action) and the Place levels the rod by turning the hand before it slides in; a rod that
+  turns on the way in (a few degrees) still clears the shelf's front edge by the 1.2 cm margin.
+* The rod's centre ends at most as deep as the grasp point is from it, less 1.5 cm (the fingers
+  stay outside): 2–6 cm inside the opening, so up to half the rod overhangs the shelf edge.
+  The goal holds (the centre is in the box) and the rod rests stably; pushing it further in
+  would take another skill.
+* Rods are not checked against each other on the floor (the raised chassis passes over them);
+  a rod lying across another cannot be grasped flat and makes Pick fail its prediction.
 """
 
 from __future__ import annotations
