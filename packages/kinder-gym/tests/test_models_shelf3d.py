@@ -110,6 +110,23 @@ def test_pick_and_place_reach_their_predictions(env) -> None:
     assert env.goal_atoms(state)["on(cube1, cupboard_1_goal_region)"]
 
 
+def test_place_sampler_draws_free_slots_along_the_shelf(env) -> None:
+    model = create_model(env)
+    state = env.reset(seed=0)[0].copy()
+    # cube2 on the shelf at the first slot (0.22 m along the shelf from its centre).
+    frame = env.regions.transform(state, "cupboard_1_goal_region")
+    x, y, z = frame[:3, :3] @ np.array([-0.22, 0.0, 0.01]) + frame[:3, 3]
+    for feature, value in (("x", x), ("y", y), ("z", z)):
+        state.set(env.objects["cube2"], feature, value)
+    op = next(
+        o for o in model.ground_operators(state) if o.name == "Place(robot, cube1, cupboard_1)"
+    )
+    controller = model.skill(op).controller
+    rng = np.random.default_rng(0)
+    drawn = {round(float(controller.sample_parameters(state, rng)[0]), 6) for _ in range(200)}
+    assert drawn == {round(k / 7, 6) for k in range(1, 8)}
+
+
 def test_place_is_not_initiable_with_an_open_hand(env) -> None:
     model = create_model(env)
     state = env.reset(seed=0)[0]

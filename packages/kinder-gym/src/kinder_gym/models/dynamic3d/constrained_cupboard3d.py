@@ -87,18 +87,18 @@ from kinder_gym.models.dynamic3d.shelf3d import (
     _yaw_of,
 )
 from kinder_gym.models.dynamic3d.tidybot import (
-    CONTINUOUS,
     MAX_DELTA,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
+    drive_reach_segment,
     gripper_quat,
-    ik_near,
     line_segments,
+    nearest_ik,
     pinch_position,
 )
-from kinder_gym.motion_planning import FloatArray, config_delta, wrap_angle
+from kinder_gym.motion_planning import FloatArray, wrap_angle
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
@@ -112,9 +112,6 @@ SLIDE_ABOVE_SHELF = 0.012
 #: Largest base step (m, rad per action) while a rod is held: at full speed the rod swings up
 #: about the fingers' closing axis (47° measured on ConstrainedCupboard3D-o1, seed 0).
 CARRY_SPEED = (0.03, 0.05)
-#: Arm joint speed (rad per action) measured while the arm tracks a far target.
-ARM_SPEED = 0.05
-_CONTINUOUS_JOINTS = tuple(int(i) for i in np.flatnonzero(CONTINUOUS))
 #: Distance (m) in front of the opening at which the rod's tip waits before sliding in.
 PRE_PLACE = 0.05
 #: Smallest distance (m) the pinch point keeps in front of the opening: the open fingers are
@@ -217,33 +214,9 @@ class PickController(_ShelfController):
         close = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
         # The arm swings to above the grasp point while the base drives (the chassis path is
         # checked; the hand passes 15 cm above the floor, over the rods).
-        ready = _nearest_ik(above, quat, goal, arm_joints(state, robot))
-        drive = self._drive(goal, ready, 0.0, 0.01)
-        turn = _arm_turn(arm_joints(state, robot), ready)
-        drive = replace(drive, max_steps=max(drive.max_steps, math.ceil(turn / ARM_SPEED) + 40))
+        ready = nearest_ik(above, quat, goal, arm_joints(state, robot), READY)
+        drive = drive_reach_segment(state, robot, goal, ready, 0.0, 0.01)
         return [drive, descend, close, lift]
-
-
-def _arm_turn(a: FloatArray, b: FloatArray) -> float:
-    """The largest joint rotation (rad) from arm joints ``a`` to ``b``."""
-    return float(np.abs(config_delta(a, b, _CONTINUOUS_JOINTS)).max())
-
-
-def _nearest_ik(
-    position: FloatArray, quat: FloatArray, base: FloatArray, arm: FloatArray
-) -> FloatArray:
-    """Of the IK solutions found from the current arm and from READY, the one nearer the arm:
-    from the arm of the last Place, READY's solution is often a wrist flip (3 rad, 60 steps)
-    away."""
-    found = []
-    for seed in (arm, READY):
-        try:
-            found.append(ik_near(position, quat, base, seed))
-        except SkillFailure:
-            continue
-    if not found:
-        raise SkillFailure(f"no IK solution for the pinch point at {np.round(position, 3)}")
-    return min(found, key=lambda q: _arm_turn(arm, q))
 
 
 def _rod_in_base(state: ObjectCentricState, robot: Object, rod: Object) -> tuple[FloatArray, float]:

@@ -79,7 +79,7 @@ from kinder_gym.models.dynamic3d.rearrange3d import (
     grasp_yaws,
     top_down_yaw,
 )
-from kinder_gym.models.dynamic3d.shelf3d import CLOSED, GRIP_STEPS
+from kinder_gym.models.dynamic3d.shelf3d import CLOSED, GRIP_STEPS, RELEASE
 from kinder_gym.models.dynamic3d.tidybot import (
     HOME,
     Segment,
@@ -109,8 +109,6 @@ PAD_THICKNESS = 0.009
 #: Offsets (m) of the pinch point from a cube's centre along the pads' width, tried in order
 #: to keep a neighbour out of the grasp; the 1 cm cube stays within the 2.2 cm wide pads.
 GRASP_SHIFTS = (0.0, 0.0025, -0.0025, 0.005, -0.005)
-#: Gripper command releasing a cube inside a container: the pads 4.7 cm apart.
-RELEASE = 0.45
 #: Pad tips reach 2.5 cm beyond the pinch point; they stop this high (m) above the table.
 PAD_REACH = 0.025
 PAD_CLEARANCE = 0.003

@@ -20,7 +20,7 @@ from __future__ import annotations
 import abc
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TypeAlias
 
 import numpy as np
@@ -42,6 +42,9 @@ BASE_FEATURES = ("pos_base_x", "pos_base_y", "pos_base_rot")
 ARM_FEATURES = tuple(f"pos_arm_joint{i}" for i in range(1, 8))
 #: Bound of every delta in the action (m, rad).
 MAX_DELTA = 0.1
+#: Speed (rad per action) at which the arm's joints follow a far target: about half the delta,
+#: measured on the Shelf3D and ConstrainedCupboard3D picks.
+ARM_SPEED = 0.05
 _LOW, _HIGH = robot_description().arm_joint_limits
 #: The continuous arm joints (no limits): their errors are wrapped the short way round.
 CONTINUOUS = ~np.isfinite(_LOW)
@@ -101,6 +104,31 @@ def ik_near(
     if not result.success:
         raise SkillFailure(f"no IK solution for the pinch point at {np.round(position, 3)}")
     return np.asarray(result.arm_joints, dtype=np.float64)
+
+
+def arm_turn(a: FloatArray, b: FloatArray) -> float:
+    """The largest joint rotation (rad) from arm joints ``a`` to ``b`` (the continuous joints
+    the short way round)."""
+    d = np.asarray(b, dtype=np.float64) - np.asarray(a, dtype=np.float64)
+    d[CONTINUOUS] = (d[CONTINUOUS] + math.pi) % (2 * math.pi) - math.pi
+    return float(np.abs(d).max())
+
+
+def nearest_ik(
+    position: FloatArray, quat: FloatArray, base: FloatArray, arm: FloatArray, other: FloatArray
+) -> FloatArray:
+    """Of the IK solutions found from the arm joints ``arm`` and from ``other`` (a seed on a
+    known-good branch), the one nearer ``arm``: it sets how long the arm takes to get there (from
+    where a Place left the arm, the other seed's solution is often a wrist flip, 3 rad, away)."""
+    found = []
+    for seed in (arm, other):
+        try:
+            found.append(ik_near(position, quat, base, seed))
+        except SkillFailure:
+            continue
+    if not found:
+        raise SkillFailure(f"no IK solution for the pinch point at {np.round(position, 3)}")
+    return min(found, key=lambda q: arm_turn(arm, q))
 
 
 @dataclass(frozen=True)
@@ -200,6 +228,21 @@ def drive_segment(
     )
 
 
+def drive_reach_segment(
+    state: ObjectCentricState,
+    robot: Object,
+    goal: FloatArray,
+    arm: FloatArray,
+    gripper: float,
+    tol: float,
+) -> Segment:
+    """:func:`drive_segment` for an arm that moves to ``arm`` while the base drives: its step
+    budget also covers the arm's largest joint turn at :data:`ARM_SPEED`, plus 40."""
+    seg = drive_segment(state, robot, goal, arm, gripper, tol)
+    steps = math.ceil(arm_turn(arm_joints(state, robot), arm) / ARM_SPEED) + 40
+    return replace(seg, max_steps=max(seg.max_steps, steps))
+
+
 class Dynamic3DController(Controller):
     """Segment following for the Dynamic3D robot (see the module docstring).
 
@@ -292,15 +335,19 @@ class Dynamic3DController(Controller):
 
 __all__ = [
     "ARM_FEATURES",
+    "ARM_SPEED",
     "BASE_FEATURES",
     "HOME",
     "Dynamic3DController",
     "Segment",
     "arm_joints",
+    "arm_turn",
     "base_pose",
+    "drive_reach_segment",
     "drive_segment",
     "gripper_quat",
     "ik_near",
     "line_segments",
+    "nearest_ik",
     "pinch_position",
 ]
