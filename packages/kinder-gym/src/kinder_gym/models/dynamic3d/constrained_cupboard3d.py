@@ -74,7 +74,7 @@ from gymnasium import spaces
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.dynamic3d.object_types import FIXTURE_TYPE, MOVABLE_TYPE, ROBOT_TYPE
 from kinder_garden3d.robot.description import forward_kinematics
-from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.concepts import GroundAtom
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.shelf3d import (
     CHASSIS_RADIUS,
@@ -85,6 +85,7 @@ from kinder_gym.models.dynamic3d.shelf3d import (
     _segment_rect_distance,
     _ShelfController,
     _yaw_of,
+    pick_place_domain,
 )
 from kinder_gym.models.dynamic3d.tidybot import (
     MAX_DELTA,
@@ -99,7 +100,6 @@ from kinder_gym.models.dynamic3d.tidybot import (
     pinch_position,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 ROD_PREFIX = "cuboid_"
@@ -363,10 +363,8 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     goal_of = {objects[rod]: objects[cup] for rod, _, cup in goal_pairs}
     ctx = CupboardContext(env, robot_obj, cupboards, rods, regions)
 
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
-    OnGround = Predicate("OnGround", (MOVABLE_TYPE,))
-    OnShelf = Predicate("OnShelf", (MOVABLE_TYPE, FIXTURE_TYPE))
+    predicates, pick, place = pick_place_domain("?rod")
+    HandEmpty, Holding, OnGround, OnShelf = predicates
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
         atoms: set[GroundAtom] = set()
@@ -394,24 +392,6 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(OnGround.ground([r]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
-    c = Variable("?rod", MOVABLE_TYPE)
-    f = Variable("?cupboard", FIXTURE_TYPE)
-    pick = LiftedOperator(
-        "Pick",
-        (r, c),
-        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
-        frozenset({Holding.lift([r, c])}),
-        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
-    )
-    place = LiftedOperator(
-        "Place",
-        (r, c, f),
-        frozenset({Holding.lift([r, c])}),
-        frozenset({HandEmpty.lift([r]), OnShelf.lift([c, f])}),
-        frozenset({Holding.lift([r, c])}),
-    )
-
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
         del state
         return frozenset(
@@ -424,7 +404,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         name="constrained_cupboard3d",
         env=env,
         types=(ROBOT_TYPE, MOVABLE_TYPE, FIXTURE_TYPE),
-        predicates=(HandEmpty, Holding, OnGround, OnShelf),
+        predicates=predicates,
         skills=(Skill(pick, PickController, ctx), Skill(place, PlaceController, ctx)),
         goal_fn=goal,
         abstraction_fn=abstraction,

@@ -356,6 +356,36 @@ class PlaceController(_ShelfController):
         ]  # fmt: skip
 
 
+def pick_place_domain(
+    item: str,
+) -> tuple[tuple[Predicate, Predicate, Predicate, Predicate], LiftedOperator, LiftedOperator]:
+    """The predicates ``(HandEmpty, Holding, OnGround, OnShelf)`` and the ``Pick(?robot, item)``
+    and ``Place(?robot, item, ?cupboard)`` operators of a floor-to-cupboard model (Shelf3D,
+    ConstrainedCupboard3D); ``item`` names the object variable (``"?cube"``)."""
+    hand_empty = Predicate("HandEmpty", (ROBOT_TYPE,))
+    holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    on_ground = Predicate("OnGround", (MOVABLE_TYPE,))
+    on_shelf = Predicate("OnShelf", (MOVABLE_TYPE, FIXTURE_TYPE))
+    r = Variable("?robot", ROBOT_TYPE)
+    c = Variable(item, MOVABLE_TYPE)
+    f = Variable("?cupboard", FIXTURE_TYPE)
+    pick = LiftedOperator(
+        "Pick",
+        (r, c),
+        frozenset({hand_empty.lift([r]), on_ground.lift([c])}),
+        frozenset({holding.lift([r, c])}),
+        frozenset({hand_empty.lift([r]), on_ground.lift([c])}),
+    )
+    place = LiftedOperator(
+        "Place",
+        (r, c, f),
+        frozenset({holding.lift([r, c])}),
+        frozenset({hand_empty.lift([r]), on_shelf.lift([c, f])}),
+        frozenset({holding.lift([r, c])}),
+    )
+    return (hand_empty, holding, on_ground, on_shelf), pick, place
+
+
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The Shelf3D planning model (any number of cubes)."""
     robot_obj: Object = env.objects["robot"]  # type: ignore[attr-defined]
@@ -368,10 +398,8 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     )
     ctx = ShelfContext(env, robot_obj, cupboard, cubes)
 
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
-    OnGround = Predicate("OnGround", (MOVABLE_TYPE,))
-    OnShelf = Predicate("OnShelf", (MOVABLE_TYPE, FIXTURE_TYPE))
+    predicates, pick, place = pick_place_domain("?cube")
+    HandEmpty, Holding, OnGround, OnShelf = predicates
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
         atoms: set[GroundAtom] = set()
@@ -390,24 +418,6 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(OnShelf.ground([c, cupboard]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
-    c = Variable("?cube", MOVABLE_TYPE)
-    f = Variable("?cupboard", FIXTURE_TYPE)
-    pick = LiftedOperator(
-        "Pick",
-        (r, c),
-        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
-        frozenset({Holding.lift([r, c])}),
-        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
-    )
-    place = LiftedOperator(
-        "Place",
-        (r, c, f),
-        frozenset({Holding.lift([r, c])}),
-        frozenset({HandEmpty.lift([r]), OnShelf.lift([c, f])}),
-        frozenset({Holding.lift([r, c])}),
-    )
-
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
         del state
         return frozenset(
@@ -418,7 +428,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         name="shelf3d",
         env=env,
         types=(ROBOT_TYPE, MOVABLE_TYPE, FIXTURE_TYPE),
-        predicates=(HandEmpty, Holding, OnGround, OnShelf),
+        predicates=predicates,
         skills=(Skill(pick, PickController, ctx), Skill(place, PlaceController, ctx)),
         goal_fn=goal,
         abstraction_fn=abstraction,
@@ -427,4 +437,4 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     )
 
 
-__all__: Sequence[str] = ["PickController", "PlaceController", "create_model"]
+__all__: Sequence[str] = ["PickController", "PlaceController", "create_model", "pick_place_domain"]
