@@ -45,8 +45,8 @@ Differences from upstream: upstream KinDER 0.2.5 has no bilevel-planning model f
 model.
 
 Measured (``benchmarks/results/bilevel_planning.md``, BP defaults, 60 s planning budget): o1
-1.00 and o6 0.98 at 5 seeds × 10 episodes, o2–o5 1.00 at 1 × 10; o6 plans take about 735 of
-the 1000 steps allowed (about 120 per rod).
+1.00 and o6 0.96 at 5 seeds × 10 episodes, o2–o5 1.00 at 1 × 10; o6 plans take about 735 of
+the 1000 steps allowed (about 120 per rod); every failure was a planning timeout.
 
 Limits and what was found on the way:
 

@@ -3,8 +3,8 @@
 Covers the table variants (o4 and o20 into bins, o20 into bowls): a pile of 1 cm cubes lies at
 the centre of a 1.2 x 0.6 m table, with four containers around it; each cube's goal region
 (read from the task file, so the colour cycle is not hard-coded) is a box in its container's
-frame. The o12 cupboard variant (cubes and 35 cm rods from the floor onto four cupboard levels,
-the rods upright into 10 cm compartments) is not modelled: see Limits.
+frame. The o12 cupboard variant (nine cubes and three 35 cm rods from the floor onto four
+cupboard levels) is not modelled: see Limits.
 
 Concepts:
 
@@ -52,9 +52,14 @@ Limits:
   cost over 60 s to sample once).
 * A cube lying on an edge (tilted in the pile) is grasped as if flat; cubes whose neighbours
   get caught between the pads make the pick's prediction fail and the planner resample.
-* o12 (cupboard) is not modelled: the rods need a regrasp to stand upright in the top shelf's
-  compartments, and the cubes come from the floor onto shelves 10 cm apart; the module raises
-  a ValueError naming it.
+* o12 (cupboard) is not modelled; the module raises a ValueError naming it. Its twelve objects
+  come from the floor, one by one: at the about 120 steps per object of the Shelf3D and
+  ConstrainedCupboard3D floor-to-cupboard skills, that is about 1,440 of the 1,000 steps
+  allowed. The rods need no regrasp (the top level's goal boxes are 45 cm tall, so a rod lying
+  along the depth, slid in end first as in ConstrainedCupboard3D, counts), but the nine cubes go
+  onto levels only 10 cm high, too low for Shelf3D's 45° approach (with the pinch point 13 cm
+  inside, the gripper crosses the opening about 17 cm above the shelf; geometry, not tried): a
+  flatter approach would be needed.
 
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
