@@ -1,4 +1,4 @@
-"""How often the Dynamic3D planning models' skills reach their operators' predictions.
+"""How often the dynamic planning models' skills reach their operators' predictions.
 
 A planner-free check of the skills (no search, no time budget, so machine load does not change
 it), for comparing physics settings or skill constants. For each seed the operators run in a
@@ -11,11 +11,14 @@ fixed order, each with up to 3 parameter samples from its own sampler:
   no screw is lost (a pass that loses one is undone, as the planner would reject it).
 * ``toss``: Topple, then Pick and Drop of every cube in turn (Tossing3D-oN); a step counts as
   for ``shelf``.
+* ``scoop``: GraspScoop, then ScoopAndPour within what is left of the episode's step limit
+  (DynScoopPour2D-oN), one parameter sample each, so its counts are single-sample rates.
 
 Usage:
     python benchmarks/skill_success.py shelf --env kinder/Shelf3D-o4-v0 --seeds 0-5
     python benchmarks/skill_success.py sweep --seeds 0-19 [--contacts pyramidal:1]
     python benchmarks/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 0-9
+    python benchmarks/skill_success.py scoop --env kinder/DynScoopPour2D-o10-v0 --seeds 0-29
 
 Prints one JSON object: successes and tries per skill, the actions of the successful runs, the
 screws in the drawer at the end (sweep) and the episodes whose env goal was reached.
@@ -44,7 +47,7 @@ def _seeds(text: str) -> list[int]:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("model", choices=("shelf", "sweep", "toss"))
+    parser.add_argument("model", choices=("shelf", "sweep", "toss", "scoop"))
     parser.add_argument("--env", help="env id (default: Shelf3D-o1 or SweepIntoDrawer3D-o5)")
     parser.add_argument("--seeds", default="0-9")
     parser.add_argument("--contacts", help="cone:impratio, e.g. pyramidal:1 (default: the env's)")
@@ -53,6 +56,7 @@ def main(argv: list[str] | None = None) -> None:
         "shelf": "kinder/Shelf3D-o1-v0",
         "sweep": "kinder/SweepIntoDrawer3D-o5-v0",
         "toss": "kinder/Tossing3D-o1-v0",
+        "scoop": "kinder/DynScoopPour2D-o10-v0",
     }[args.model]
     kwargs: dict[str, Any] = {}
     if args.contacts:
@@ -72,8 +76,14 @@ def main(argv: list[str] | None = None) -> None:
     def atoms(s: ObjectCentricState) -> set[str]:
         return {str(a) for a in model.abstract(s)}
 
-    def run(name: str, skill: str, state: ObjectCentricState, rng: np.random.Generator,
-            tries: int = TRIES) -> ObjectCentricState | None:  # fmt: skip
+    def run(
+        name: str,
+        skill: str,
+        state: ObjectCentricState,
+        rng: np.random.Generator,
+        tries: int = TRIES,
+        max_steps: int = MAX_STEPS,
+    ) -> ObjectCentricState | None:
         nonlocal steps
         op = ops[name]
         want = {str(a) for a in op.apply(model.abstract(state))}
@@ -82,7 +92,7 @@ def main(argv: list[str] | None = None) -> None:
             gs = model.skill(op)
             params = gs.controller.sample_parameters(state, rng)
             try:
-                out = execute_skill(gs.controller, state, params, env.transition, MAX_STEPS,
+                out = execute_skill(gs.controller, state, params, env.transition, max_steps,
                                     stop_on_goal=False)  # fmt: skip
             except SkillFailure:
                 count(skill, False)
@@ -108,6 +118,13 @@ def main(argv: list[str] | None = None) -> None:
                 for name, skill in ((f"Pick(robot, {cube})", "Pick"),
                                     (f"Place(robot, {cube}, cupboard_1)", "Place")):  # fmt: skip
                     state = run(name, skill, state, rng) if state is not None else None
+        elif args.model == "scoop":
+            limit = env.spec.max_episode_steps if env.spec is not None else 1000
+            before = steps
+            state = run("GraspScoop(robot, hook)", "GraspScoop", state, rng, 1, limit)
+            if state is not None:
+                left = limit - (steps - before)
+                state = run("ScoopAndPour(robot, hook)", "ScoopAndPour", state, rng, 1, left)
         elif args.model == "toss":
             steps_ = [("Topple(robot, cuboid_barrier)", "Topple")]
             for cube in sorted(n for n in env.objects if n.startswith("cube_")):  # type: ignore[attr-defined]

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from kinder_bench.baselines.bilevel_planning import plan_reaches_goal
-from kinder_core import make_object_centric
+from kinder_core import ObjectCentricState, make_object_centric
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic2d.dyn_scooppour2d import scoop_tip
-from kinder_gym.skills import execute_skill
+from kinder_gym.skills import SkillFailure, execute_skill
 
 
 def test_scooppour_abstraction_on_edited_states() -> None:
@@ -54,7 +55,7 @@ def test_scooppour_skills_reach_their_predictions() -> None:
     used = len(out.actions)
     state, atoms = out.states[-1], model.abstract(out.states[-1])
     op = ops["ScoopAndPour(robot, hook)"]
-    params = np.array([0.5, 0.12, 1.0, 1.2])
+    params = np.array([0.4, 0.03, 1.0, 1.2])
     out = execute_skill(model.skill(op).controller, state, params, env.transition, 1000 - used)
     assert out.finished and env.goal_reached(out.states[-1])
     assert model.abstract(out.states[-1]) == op.apply(atoms)
@@ -64,3 +65,19 @@ def test_bilevel_planner_solves_scooppour() -> None:
     env = make_object_centric("kinder/DynScoopPour2D-o10-v0")
     solved, _ = plan_reaches_goal(env, seed=4)
     assert solved
+
+
+def test_scooppour_fails_when_every_move_is_blocked() -> None:
+    """A trip that cannot move (the robot wedged in a pile) ends the skill instead of looping."""
+    env = make_object_centric("kinder/DynScoopPour2D-o10-v0")
+    model = create_model(env)
+    state = env.reset(seed=4)[0]
+    state.set(env.hook, "held", 1.0)  # type: ignore[attr-defined]
+    ops = {o.name: o for o in model.ground_operators(state)}
+    controller = model.skill(ops["ScoopAndPour(robot, hook)"]).controller
+
+    def frozen(s: ObjectCentricState, a: np.ndarray) -> tuple[ObjectCentricState, float, bool]:
+        return s, 0.0, False
+
+    with pytest.raises(SkillFailure, match="stuck"):
+        execute_skill(controller, state, np.array([0.4, 0.03, 1.0, 1.2]), frozen, 1000)
