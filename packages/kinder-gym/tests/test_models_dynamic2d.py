@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from kinder_core import make_object_centric
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic2d.dyn_obstruction2d import footprint
 from kinder_gym.models.dynamic2d.dyn_pushpullhook2d import hook_above
-from kinder_gym.skills import execute_skill
+from kinder_gym.skills import SkillFailure, execute_skill
 
 
 def _run(model, state, name, seed=0):  # type: ignore[no-untyped-def]
@@ -57,6 +58,36 @@ def test_dynobstruction2d_skills_reach_their_predictions() -> None:
     state = out.states[-1]
     op, out = _run(model, state, "PushTarget(robot, target_block, target_surface, obstruction0)")
     assert out.finished and env.goal_reached(out.states[-1])
+
+
+@pytest.mark.parametrize(("seed", "leaning"), [(13, False), (5, True)])
+def test_push_closes_or_leans_the_fingers_where_open_ones_do_not_fit(
+    seed: int, leaning: bool
+) -> None:
+    """o0 instances whose target stands so near a wall that the open fingers (and the base above
+    them) cannot get behind it: seed 13 fits closed upright fingers, seed 5 only leaning ones;
+    either way the push reaches the goal with the block upright."""
+    env = make_object_centric("kinder/DynObstruction2D-o0-v0")
+    model = create_model(env)
+    state = env.reset(seed=seed)[0]
+    op = next(o for o in model.ground_operators(state) if o.name.startswith("PushTarget"))
+    controller = model.skill(op).controller
+    params = controller.sample_parameters(state, np.random.default_rng(0))
+    controller.reset(state, params)
+    open_gap = state.get(env.robot, "gripper_base_height")
+    closed_gap = 2 * state.get(env.robot, "finger_height")
+    with pytest.raises(SkillFailure, match="wall"):
+        controller._push_waypoints(state, open_gap)
+    if leaning:
+        with pytest.raises(SkillFailure, match="wall"):
+            controller._push_waypoints(state, closed_gap)
+    out = execute_skill(controller, state, params, env.transition, 200, stop_on_goal=False)
+    end = out.states[-1]
+    assert out.finished and env.goal_reached(end)
+    assert end.get(env.robot, "finger_gap") == pytest.approx(closed_gap)
+    lean = abs(end.get(env.robot, "theta") + np.pi / 2)
+    assert (lean > 0.3) if leaning else (lean < 1e-6)
+    assert abs(end.get(env.target_block, "theta")) < 0.01
 
 
 def test_dynpushpullhook2d_skills_chain_to_the_goal() -> None:
