@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
+from kinder_bench.baselines.bilevel_planning import abstract_match
 from kinder_core import make_object_centric
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic2d.dyn_obstruction2d import footprint
@@ -153,3 +156,41 @@ def test_grasp_hook_says_when_there_is_no_room_beyond_the_free_end() -> None:
     _, _, controller = _grasp_hook_controller(env, state, [0.5, 0.5])
     with pytest.raises(SkillFailure, match="no room for the robot beyond the bar's free end"):
         controller.waypoints(state)
+
+
+def test_a_push_that_clears_a_second_obstruction_is_accepted() -> None:
+    """NotObstructing is monotone with Obstructing as its negation: a ClearSurface that also
+    shoves another obstruction off the surface is accepted, one that puts one back is not."""
+    env = make_object_centric("kinder/DynObstruction2D-o3-v0")
+    model = create_model(env)
+    state = env.reset(seed=0)[0]
+    surface = env.target_surface
+    o0, o1 = env.obstructions[:2]
+    for o in (o0, o1):
+        state.set(o, "x", state.get(surface, "x"))
+    before = model.abstract(state)
+    op = next(
+        o
+        for o in model.ground_operators(state)
+        if o.name.startswith("ClearSurface(robot, obstruction0")
+    )
+    expected = op.apply(before)
+    s_lo, s_hi = footprint(state, surface)
+    off = s_hi + 0.6 if s_hi + 0.6 < 2.8 else s_lo - 0.6  # clear of the surface, in the room
+    far = state.copy()
+    far.set(o0, "x", off)
+    far.set(o1, "x", off)
+    reached = model.abstract(far)
+    assert reached != expected
+    assert abstract_match(model, reached, expected)
+    # Losing an atom that no extra monotone atom accounts for is still a mismatch.
+    back = far.copy()
+    back.set(o0, "x", state.get(surface, "x"))
+    assert not abstract_match(model, model.abstract(back), expected)
+
+
+def test_monotone_negations_must_name_a_monotone_predicate() -> None:
+    env = make_object_centric("kinder/DynObstruction2D-o1-v0")
+    model = create_model(env)
+    with pytest.raises(ValueError, match="monotone_negations"):
+        dataclasses.replace(model, monotone_negations={"Obstructing": "NotObstructing"})

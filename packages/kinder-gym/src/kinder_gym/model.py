@@ -13,7 +13,7 @@ Models are made per env family by :func:`kinder_gym.models.create_model`.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, Type
@@ -53,6 +53,10 @@ class PlanningModel:
             harmful (e.g. a latching ``Pressed(button)``). A refinement step that makes such atoms
             true *in addition* to its operator's effects is accepted, and later steps whose effects
             already hold are skipped. Empty: exact abstract-state matching (upstream).
+        monotone_negations: For monotone predicates that come with an explicit negation (e.g.
+            ``NotObstructing`` and ``Obstructing``), ``{monotone name: negation name}``: when an
+            extra monotone atom is accepted, its negation's atom over the same objects may vanish
+            with it (a push that clears a second obstruction too).
     """
 
     name: str
@@ -67,6 +71,7 @@ class PlanningModel:
     max_episode_steps: int | None = None
     operator_filter: Callable[[GroundOperator, ObjectCentricState], bool] | None = None
     monotone_predicates: frozenset[str] = frozenset()
+    monotone_negations: Mapping[str, str] = field(default_factory=dict)
     _skill_by_op: dict[str, Skill] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -82,6 +87,12 @@ class PlanningModel:
         if unknown:
             raise ValueError(f"Model {self.name}: unknown monotone predicates {unknown}")
         self.monotone_predicates = frozenset(self.monotone_predicates)
+        for mono, neg in self.monotone_negations.items():
+            if mono not in self.monotone_predicates or neg not in known:
+                raise ValueError(
+                    f"Model {self.name}: monotone_negations maps {mono!r} to {neg!r}; expected a "
+                    "monotone predicate mapped to a predicate of the model"
+                )
         for op in self.operators:
             for atom in op.preconditions | op.add_effects | op.delete_effects:
                 if atom.predicate.name not in known:

@@ -357,15 +357,19 @@ def abstract_match(
     model: PlanningModel, reached: frozenset[GroundAtom], expected: frozenset[GroundAtom]
 ) -> bool:
     """Whether a skill that was predicted to reach ``expected`` succeeded by reaching ``reached``:
-    an exact match, or extra atoms of the model's monotone predicates only."""
+    an exact match, or extra atoms of the model's monotone predicates only (each of which may
+    take its declared negation's atom over the same objects with it)."""
     if reached == expected:
         return True
     monotone = model.monotone_predicates
-    return (
-        bool(monotone)
-        and expected <= reached
-        and all(a.predicate.name in monotone for a in reached - expected)
-    )
+    extra = reached - expected
+    if not monotone or not all(a.predicate.name in monotone for a in extra):
+        return False
+    negations = model.monotone_negations
+    may_vanish = {
+        (negations[a.predicate.name], a.objects) for a in extra if a.predicate.name in negations
+    }
+    return all((a.predicate.name, a.objects) in may_vanish for a in expected - reached)
 
 
 def _drop_noops(
