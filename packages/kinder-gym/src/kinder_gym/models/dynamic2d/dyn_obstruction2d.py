@@ -140,25 +140,17 @@ class PushController(KinRobotController):
 
     def waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
         v = state[self.objects[0]]
-        try:
-            return self._push_waypoints(state, float(v[GRIPPER_BASE_HEIGHT]))
-        except SkillFailure:
-            pass
-        # No room beside the block for the open fingers (a wall or another block within
-        # ~0.45 m): push with the fingers closed, which needs ~0.1 m less room, the tips raised
-        # so the gripper base passes above the block.
-        try:
-            return self._push_waypoints(state, 2 * float(v[FINGER_HEIGHT]))
-        except SkillFailure as failure:
-            last = failure
-        # Still no room, mostly for the base above the fingers: lean the closed fingers into the
-        # gap so the base stands above the block instead.
-        for tilt in TILTS:
+        open_gap, closed_gap = float(v[GRIPPER_BASE_HEIGHT]), 2 * float(v[FINGER_HEIGHT])
+        # Roomiest first (module docstring): open fingers; closed fingers (~0.1 m less room, the
+        # tips raised so the gripper base passes above the block); closed fingers leaning into
+        # the gap so the base stands above the block.
+        postures = [(open_gap, 0.0), (closed_gap, 0.0), *((closed_gap, t) for t in TILTS)]
+        for gap, tilt in postures[:-1]:
             try:
-                return self._push_waypoints(state, 2 * float(v[FINGER_HEIGHT]), tilt)
-            except SkillFailure as failure:
-                last = failure
-        raise last
+                return self._push_waypoints(state, gap, tilt)
+            except SkillFailure:
+                pass
+        return self._push_waypoints(state, *postures[-1])  # its failure is the skill's
 
     def _push_waypoints(
         self, state: ObjectCentricState, gap: float, tilt: float = 0.0
