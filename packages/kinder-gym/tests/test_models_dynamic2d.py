@@ -146,16 +146,53 @@ def test_grasp_hook_finds_a_route_and_an_arm_that_fit() -> None:
         assert model.abstract(out.states[-1]) == op.apply(model.abstract(state))
 
 
-def test_grasp_hook_says_when_there_is_no_room_beyond_the_free_end() -> None:
+def test_grasp_hook_shoves_the_hook_when_there_is_no_room_beyond_the_free_end() -> None:
+    """Seed 1: the bar's free end lies 0.3 m from the left wall, too near for the robot to stand
+    beyond it. GraspHook first shoves the hook along its bar, then grasps it."""
     import pytest
 
     from kinder_gym.skills import SkillFailure
 
     env = make_object_centric("kinder/DynPushPullHook2D-o5-v0")
-    state = env.reset(seed=1)[0]  # the bar's free end lies 0.3 m from the left wall
-    _, _, controller = _grasp_hook_controller(env, state, [0.5, 0.5])
+    state = env.reset(seed=1)[0]
+    model, op, controller = _grasp_hook_controller(env, state, [0.5, 0.5])
     with pytest.raises(SkillFailure, match="no room for the robot beyond the bar's free end"):
-        controller.waypoints(state)
+        controller._grasp_waypoints(state)
+
+    def free_end_x(s):  # type: ignore[no-untyped-def]
+        x, _, theta = s[env.hook][:3]
+        return x - s.get(env.hook, "length_side1") * np.cos(theta)
+
+    params = np.array([0.5, 0.5])
+    out = execute_skill(controller, state, params, env.transition, model.max_skill_horizon)
+    end = out.states[-1]
+    assert out.finished and model.abstract(end) == op.apply(model.abstract(state))
+    assert free_end_x(state) < 0.35 and free_end_x(end) > 0.8
+
+
+@pytest.mark.parametrize(("seed", "operator"), [(5, "SweepTarget"), (6, "PreHook")])
+def test_dynpushpullhook2d_the_target_reaches_the_wall_swept_or_raked(
+    seed: int, operator: str
+) -> None:
+    """Seed 5: the hook's free end lies by the left wall (GraspHook shoves it first) and the
+    target too near that wall for the rake, which comes from its left (PreHook fails), but
+    sweeping the upright bar leftwards brings it down. Seed 6: the rake."""
+    from kinder_gym.skills import SkillFailure
+
+    env = make_object_centric("kinder/DynPushPullHook2D-o0-v0")
+    model = create_model(env)
+    state = env.reset(seed=seed)[0]
+    _, out = _run(model, state, "GraspHook(robot, hook)")
+    held = out.states[-1]
+    if operator == "SweepTarget":
+        with pytest.raises(SkillFailure, match="the base would leave the world"):
+            _run(model, held, "PreHook(robot, hook, target_block)")
+        _, out = _run(model, held, "SweepTarget(robot, hook, target_block)")
+    else:
+        _, out = _run(model, held, "PreHook(robot, hook, target_block)")
+        _, out = _run(model, out.states[-1], "HookDown(robot, hook, target_block)")
+    # The skill stops at the goal (stop_on_goal=False in _run: the controller ends by itself).
+    assert out.finished and env.goal_reached(out.states[-1])
 
 
 def test_a_push_that_clears_a_second_obstruction_is_accepted() -> None:

@@ -1,11 +1,12 @@
-"""The DynPushPullHook2D planning model: grasp the hook, reach over the target, pull it down.
+"""The DynPushPullHook2D planning model: grasp the hook, then rake or sweep the target down.
 
 The hook is an L: a long bar (``length_side1``) from its outer corner along local −x and a short
 arm (``length_side2``) along local −y. The robot grasps the long bar at its free end, pointing
 along the bar (the fingers close across it), then turns to face up (+y): the long bar then stands
-upright above the robot with the short arm at its top pointing right, like a rake. The robot
-raises the rake beside the target (left of it), slides the short arm over the target's top, and
-drives straight down: the short arm drags the target onto the middle wall.
+upright above the robot with the short arm at its top pointing right, like a rake. Then either
+the rake comes up beside the target (left of it), slides the short arm over the target's top and
+drives straight down, dragging the target onto the middle wall; or the upright bar rises just
+right of the target and turns leftwards, its left side sweeping the target down onto the wall.
 
 Concepts:
 
@@ -16,18 +17,35 @@ Concepts:
 
 Operators: ``GraspHook(?robot, ?hook)`` (pre HandEmpty; add HoldingHook; delete HandEmpty),
 ``PreHook(?robot, ?hook, ?target)`` (pre HoldingHook; add HookAbove), ``HookDown(?robot, ?hook,
-?target)`` (pre HoldingHook, HookAbove; add TargetAtGoal; delete HookAbove). Goal:
-``TargetAtGoal(target_block)``.
+?target)`` (pre HoldingHook, HookAbove; add TargetAtGoal; delete HookAbove), ``SweepTarget(?robot,
+?hook, ?target)`` (pre HoldingHook; add TargetAtGoal). Goal: ``TargetAtGoal(target_block)``.
 
 Obstructions are not part of the abstraction: the held hook (infinite mass) pushes them aside.
 
-GraspHook's arm length is capped so that the approach pose, on the bar's axis beyond its free
-end, keeps the base inside the room below the middle wall; when the route to the spot where the
-robot turns to face the bar touches something, it tries other spots (nearest first). What limits
-the model (``benchmarks/results/bilevel_planning.md``, "DynPushPullHook2D: where planning
-fails"): the bar is taken only at its free end, so when that end lies near the left wall there is
-no room for the robot at any arm length (about a third of the instances); the rake comes from the
-target's left, so a target near the left wall cannot be raked.
+Skills:
+
+* GraspHook: when the bar's free end lies too near a wall for the robot to stand beyond it (about
+  a third of the instances), the closed fingertips first shove the hook along its bar by its
+  short arm, then the robot leaves to the lower left. The arm's length is capped so that the
+  approach pose, on the bar's axis beyond the free end, keeps the base inside the room below the
+  middle wall; when the route to the spot where the robot turns to face the bar touches
+  something, it tries other spots (nearest first).
+* PreHook and SweepTarget turn the robot upright with the arm retracted, in two parts (the short
+  arm hangs below the bar while the robot faces right, so that part needs height; the rest is
+  done lower down, where the upright hook passes below a target just above the middle wall), at
+  a spot where the turning hook touches neither the walls nor the target.
+* PreHook: the rake comes from the target's left, so its short arm needs about 0.6 m of room
+  left of the target; a target nearer the left wall is SweepTarget's.
+* SweepTarget: turns anticlockwise as far as the hook stays inside the room (at most
+  SWEEP_TURN), then drives down with the arm retracting. It cannot serve a target near the right
+  wall (no room for the upright bar right of it), which is PreHook's.
+* HookDown drives down with the arm retracting, then turns clockwise (the short arm tilts down
+  like a rake's tooth) for a target still short of the wall. HookDown and SweepTarget end as
+  soon as the target overlaps the wall.
+
+What limits the model (``benchmarks/results/bilevel_planning.md``, "DynPushPullHook2D: where
+planning fails"): the first planning call now finds a plan in 49 of 50 episodes on o0 and o5;
+obstructions swept along with the target can jam it short of the wall.
 """
 
 from __future__ import annotations
@@ -41,6 +59,7 @@ from gymnasium import spaces
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden2d.dynamic2d import object_types as ot
 from kinder_garden2d.dynamic2d.geometry import (
+    LocalShape,
     WorldShape,
     bounds,
     kin_robot_geometry,
@@ -71,6 +90,21 @@ from kinder_gym.skills import Skill, SkillFailure
 UP = math.pi / 2
 #: Grid spots GraspHook tries for turning to face the bar when the fixed spot does not work.
 TURNING_SPOTS = 12
+#: When the bar's free end lies too near a wall for the robot to stand beyond it, GraspHook
+#: first shoves the hook along its bar until an arm this much (m) longer than the retracted one
+#: fits there.
+SHOVE_SPARE_ARM = 0.15
+#: Where the shoving fingertips press the short arm (m, hook frame: below the bar's top edge)
+#: and how far (rad) the robot points above the bar's axis (its base then clears the bar).
+SHOVE_CONTACT_Y = -0.25
+SHOVE_TILT = 0.3
+#: PreHook turns the robot upright in two parts: first to this far (rad) short of upright,
+#: then, lower down, the rest.
+TURN_SHORT = 0.5
+#: SweepTarget turns the upright hook leftwards by at most this much (rad).
+SWEEP_TURN = 1.4
+#: HookDown ends by turning the robot this far (rad) clockwise at the bottom.
+HOOK_DOWN_SWEEP = 0.6
 
 
 def hook_shape(state: ObjectCentricState, hook: Object) -> WorldShape:
@@ -171,10 +205,94 @@ class GraspHookController(_HookController):
         "beyond its free end, keeps the base inside the room below the middle wall."
     )
 
+    def reset(self, state: ObjectCentricState, params: Sequence[float] | FloatArray) -> None:
+        self._shoving = False
+        super().reset(state, params)
+
+    def step(self) -> FloatArray:
+        assert self.state is not None
+        if self._shoving and super().terminated():
+            # The shove is done: plan the grasp from where the hook came to rest.
+            self._shoving = False
+            self._plan, self._k, self._waited, self._last = self.waypoints(self.state), 0, 0, None
+        return super().step()
+
+    def terminated(self) -> bool:
+        return not self._shoving and super().terminated()
+
     def waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
+        if self._longest_arm(state) >= float(state[self.robot][BASE_RADIUS]):
+            return self._grasp_waypoints(state)
+        self._shoving = True
+        return self._shove_waypoints(state)
+
+    def _longest_arm(self, state: ObjectCentricState) -> float:
+        """The longest arm with which the approach pose, on the bar's axis beyond its free end,
+        keeps the base inside the room (below the base radius: no room at all)."""
         robot, hook = self.objects
         v = state[robot]
         br, al = float(v[BASE_RADIUS]), float(v[ARM_LENGTH])
+        gw, fw = float(v[GRIPPER_BASE_WIDTH]), float(v[FINGER_WIDTH])
+        hx, hy, hth = (float(c) for c in state[hook][:3])
+        w, s1 = state.get(hook, "width"), state.get(hook, "length_side1")
+        c, s = math.cos(hth), math.sin(hth)
+        end_x, end_y = hx - c * s1 + s * w / 2, hy - s * s1 - c * w / 2
+        return min(al, self._room_beyond(end_x, end_y, -c, -s, br) - 0.06 - gw / 2 - fw)
+
+    def _shove_waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
+        """Push the hook along its bar, away from the wall beyond its free end, until an arm
+        SHOVE_SPARE_ARM longer than the retracted one fits there, then leave to the lower left.
+        The closed fingertips press the short arm's left face below the bar, the robot pointing
+        SHOVE_TILT above the bar's axis so that its base stays clear of the bar (the push turns
+        the hook a little)."""
+        robot, hook = self.objects
+        v = state[robot]
+        br, al = float(v[BASE_RADIUS]), float(v[ARM_LENGTH])
+        gw, fw, fh = float(v[GRIPPER_BASE_WIDTH]), float(v[FINGER_WIDTH]), float(v[FINGER_HEIGHT])
+        cfg = self.context.config
+        hx, hy, hth = (float(c) for c in state[hook][:3])
+        w, s1 = state.get(hook, "width"), state.get(hook, "length_side1")
+        c, s = math.cos(hth), math.sin(hth)
+        if c < 0.5:
+            raise SkillFailure("GraspHook: the bar's free end does not point to the left wall")
+
+        def world(local: FloatArray) -> tuple[float, float]:
+            return hx + c * local[0] - s * local[1], hy + s * local[0] + c * local[1]
+
+        # Moving the hook along its bar moves the free end along the approach axis.
+        push = br + SHOVE_SPARE_ARM - self._longest_arm(state)
+        reach = al + gw / 2 + fw
+        tip = np.array([-w - 0.005, SHOVE_CONTACT_Y])
+        tilt = np.array([math.cos(SHOVE_TILT), math.sin(SHOVE_TILT)])
+        contact = tip - reach * tilt  # the base when the fingertips touch the short arm
+        along = np.array([1.0, 0.0])
+        pre, done = contact - 0.1 * along, contact + push * along
+        back = done - 0.15 * along
+        th = wrap(hth + SHOVE_TILT)
+        gap = 2 * fh
+        q = kin_config(state, robot)
+        low_y = cfg.world_min_y + br + 0.06
+        wps = [
+            KinWaypoint(q[0], q[1], th, br, gap),
+            KinWaypoint(*world(pre), th, br, gap),
+            KinWaypoint(*world(pre), th, al, gap),
+        ]
+        self._check_path(state, q, wps)
+        end_x = hx - c * (s1 - push) + s * w / 2  # where the free end will be
+        leave_x = max(cfg.world_min_x + br + 0.05, end_x - 0.5)
+        return [
+            *wps,
+            KinWaypoint(*world(done), th, al, gap, speed=0.5),
+            KinWaypoint(*world(back), th, al, gap),
+            KinWaypoint(*world(back), th, br, gap),
+            KinWaypoint(world(back)[0], low_y, th, br, gap),
+            KinWaypoint(leave_x, low_y, th, br, gap),
+        ]
+
+    def _grasp_waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
+        robot, hook = self.objects
+        v = state[robot]
+        br = float(v[BASE_RADIUS])
         gw, fw, fh = float(v[GRIPPER_BASE_WIDTH]), float(v[FINGER_WIDTH]), float(v[FINGER_HEIGHT])
         open_gap = float(v[GRIPPER_BASE_HEIGHT])
         overlap = 0.06 + 0.1 * float(self.params[0])
@@ -187,8 +305,7 @@ class GraspHookController(_HookController):
 
         # The approach comes along the bar's axis from beyond its free end: near a wall only a
         # shorter arm leaves the base room there.
-        end_x, end_y = world(-s1, -w / 2)
-        longest = min(al, self._room_beyond(end_x, end_y, -c, -s, br) - 0.06 - gw / 2 - fw)
+        longest = self._longest_arm(state)
         if longest < br:
             raise SkillFailure("GraspHook: no room for the robot beyond the bar's free end")
         arm = br + float(self.params[1]) * (longest - br)
@@ -292,7 +409,114 @@ class GraspHookController(_HookController):
             prev = cur
 
 
-class PreHookController(_HookController):
+class _StopAtGoal(KinRobotController):
+    """Ends as soon as the target overlaps the middle wall (going on could push it past)."""
+
+    def terminated(self) -> bool:
+        return super().terminated() or (
+            self.state is not None and bool(self.context.goal_reached(self.state))
+        )
+
+
+class _UprightController(_HookController):
+    """Skills that start by turning the held hook upright. Objects: ``(robot, hook, target)``."""
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.objects[1], "held") > 0.5
+
+    def _turn_upright(
+        self, state: ObjectCentricState, x_near: float
+    ) -> tuple[list[KinWaypoint], float]:
+        """Waypoints that retract the arm, turn the robot upright (see :meth:`_turning_spot`)
+        and bring it below ``x_near``; and the base y they end at."""
+        q = kin_config(state, self.robot)
+        br = float(state[self.robot][BASE_RADIUS])
+        x_t, y_turn, y_up = self._turning_spot(state, q, x_near)
+        dth = wrap(UP - float(q[2]))
+        th_short = q[2] + dth - math.copysign(TURN_SHORT, dth) if abs(dth) > TURN_SHORT else q[2]
+        return [
+            KinWaypoint(x_t, y_turn, q[2], q[3], q[4]),
+            KinWaypoint(x_t, y_turn, q[2], br, q[4]),
+            KinWaypoint(x_t, y_turn, wrap(th_short), br, q[4]),
+            KinWaypoint(x_t, y_up, wrap(th_short), br, q[4]),
+            KinWaypoint(x_t, y_up, UP, br, q[4]),
+            KinWaypoint(x_near, y_up, UP, br, q[4]),
+        ], y_up
+
+    def _turning_spot(
+        self, state: ObjectCentricState, q: FloatArray, x_near: float
+    ) -> tuple[float, float, float]:
+        """Where the robot, its arm retracted, turns to face up: ``(x, y_turn, y_up)``. It turns
+        at ``(x, y_turn)`` to TURN_SHORT short of upright (facing right, the short arm hangs
+        below the bar: it needs room above the lower wall), lowers itself to ``y_up``, turns
+        upright there and moves sideways to ``x_near``. The hook stays inside the world and
+        touches the target neither while turning nor while moving. Lowest ``y_up`` first, then
+        nearest ``x_near``, then lowest ``y_turn``."""
+        env = self.context
+        cfg = env.config
+        robot, hook, target = self.objects
+        h = state[hook]
+        base = state[robot][:2]
+        br = float(state[robot][BASE_RADIUS])
+        drop = float(q[3]) - br  # retracting pulls the hook this far back along the heading
+        heading = np.array([math.cos(q[2]), math.sin(q[2])])
+        hook_rel = np.asarray(h[:2]) - base - drop * heading
+        w, s1, s2 = (state.get(hook, k) for k in ("width", "length_side1", "length_side2"))
+        local = lobject_shape(w, s1, s2)
+        f = state[target]
+        tgt = place(rect_shape(state.get(target, "width"), state.get(target, "height")), *f[:3])
+        mid = (cfg.world_min_y + cfg.world_max_y) / 2
+        y_hi = mid - cfg.wall_height / 2 - br - 0.02
+        dth = wrap(UP - float(q[2]))
+        short = wrap(dth - math.copysign(TURN_SHORT, dth)) if abs(dth) > TURN_SHORT else 0.0
+
+        def hook_at(x: float, y: float, rot: float) -> WorldShape:
+            c, s = math.cos(rot), math.sin(rot)
+            hx = x + c * hook_rel[0] - s * hook_rel[1]
+            hy = y + s * hook_rel[0] + c * hook_rel[1]
+            return place(local, hx, hy, h[2] + rot)
+
+        def sweep_fits(x: float, y: float, rot0: float, rot1: float) -> bool:
+            for t in np.linspace(0.0, 1.0, 7):
+                shape = hook_at(x, y, rot0 + (rot1 - rot0) * t)
+                x0, x1, y0, y1 = bounds(shape)
+                if (
+                    x0 <= 0.02
+                    or x1 >= cfg.world_max_x - 0.02
+                    or y0 <= 0.02
+                    or y1 >= cfg.world_max_y - 0.02
+                    or overlaps(shape, tgt)
+                ):
+                    return False
+            return True
+
+        def slide_fits(x: float, y: float) -> bool:
+            n = max(1, math.ceil(abs(x_near - x) / 0.05))
+            return not any(
+                overlaps(hook_at(x + (x_near - x) * k / n, y, dth), tgt) for k in range(n + 1)
+            )
+
+        ys = [float(y) for y in np.arange(cfg.world_min_y + br + 0.04, y_hi, 0.1)]
+        xs = sorted(
+            (float(x) for x in np.arange(0.4, cfg.world_max_x - 0.3, 0.1)),
+            key=lambda x: (abs(x - x_near), x),
+        )
+        first: dict[tuple[float, float], bool] = {}
+        for y_up in ys:
+            for x in xs:
+                if not (sweep_fits(x, y_up, short, dth) and slide_fits(x, y_up)):
+                    continue
+                for y_turn in ys:
+                    if y_turn < y_up:
+                        continue
+                    if (x, y_turn) not in first:
+                        first[x, y_turn] = sweep_fits(x, y_turn, 0.0, short)
+                    if first[x, y_turn]:
+                        return x, y_turn, y_up
+        raise SkillFailure("PreHook: nowhere to turn the hook upright")
+
+
+class PreHookController(_UprightController):
     """Turn the held hook upright and lay its short arm over the target.
 
     Objects: ``(robot, hook, target)``.
@@ -303,9 +527,6 @@ class PreHookController(_HookController):
         "(gap, clearance): the upright bar ends 0.02 + 0.1·gap metres left of the target; the "
         "short arm's lower edge ends 0.03 + 0.1·clearance metres above the target's top."
     )
-
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.objects[1], "held") > 0.5
 
     def waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
         env = self.context
@@ -318,77 +539,111 @@ class PreHookController(_HookController):
         rel = _hook_offsets_when_up(state, robot, hook)
         mid = (cfg.world_min_y + cfg.world_max_y) / 2
         y_max = mid - cfg.wall_height / 2 - br - 0.02
-        spot = self._turning_spot(state, q, rel)
-        wps = [
-            KinWaypoint(spot[0], spot[1], q[2], q[3], q[4]),
-            KinWaypoint(spot[0], spot[1], UP, q[3], q[4]),
-        ]
         tgt = block_corners(state, target)
         tx0, tx1, ty1 = float(tgt[:, 0].min()), float(tgt[:, 0].max()), float(tgt[:, 1].max())
         gap = 0.02 + 0.1 * float(self.params[0])
         clearance = 0.03 + 0.1 * float(self.params[1])
-        # rel: (bar right edge dx, short arm lower edge dy, short arm tip dx) at the current arm.
+        # rel: (bar right edge dx, short arm lower edge dy, short arm tip dx) at the current arm;
+        # the arm retracts before the robot turns upright (the rake is then lowest, and sweeps
+        # least while turning: a target just above the middle wall stays clear of it).
         bar_dx, arm_dy, tip_dx = rel
+        arm_dy -= q[3] - br
         x_f = tx0 - gap - bar_dx
         if x_f + tip_dx < 0.5 * (tx0 + tx1) + 0.03:
             raise SkillFailure("PreHook: the short arm cannot cover the target's centre")
-        need = ty1 + clearance - arm_dy  # base y needed at the current arm extension
+        need = ty1 + clearance - arm_dy  # base y needed with the arm retracted
         extra = max(0.0, need - y_max)
-        arm = q[3] + extra
+        arm = br + extra
         if arm > al + 1e-9:
             raise SkillFailure("PreHook: the target is out of reach")
         y_f = need - extra
         x_a = tx0 - 0.05 - tip_dx  # short arm tip left of the target while rising
-        wps += [
-            KinWaypoint(x_a, spot[1], UP, q[3], q[4]),
+        if not (cfg.world_min_x + br < min(x_a, x_f) and max(x_a, x_f) < cfg.world_max_x - br):
+            raise SkillFailure("PreHook: the base would leave the world")
+        # Turn upright as near below x_a as the hook allows: the rake then rises beside the
+        # target rather than sweeping across it.
+        wps, _ = self._turn_upright(state, x_a)
+        return [
+            *wps,
             KinWaypoint(x_a, y_f, UP, arm, q[4]),
             KinWaypoint(x_f, y_f, UP, arm, q[4], speed=0.5, wait=1),
         ]
-        if not (cfg.world_min_x + br < min(x_a, x_f) and max(x_a, x_f) < cfg.world_max_x - br):
-            raise SkillFailure("PreHook: the base would leave the world")
-        return wps
 
-    def _turning_spot(
-        self, state: ObjectCentricState, q: FloatArray, rel: tuple[float, float, float]
-    ) -> tuple[float, float]:
-        """A base position from which the robot can turn to face up without the hook leaving
-        the world (lowest first, then nearest)."""
-        env = self.context
-        cfg = env.config
-        robot, hook = self.objects[:2]
-        h = state[hook]
-        base = state[robot][:2]
-        hook_rel = np.asarray(h[:2]) - base
-        w, s1, s2 = (state.get(hook, k) for k in ("width", "length_side1", "length_side2"))
-        local = lobject_shape(w, s1, s2)
-        mid = (cfg.world_min_y + cfg.world_max_y) / 2
-        y_hi = mid - cfg.wall_height / 2 - float(state[robot][BASE_RADIUS]) - 0.02
-        angles = np.linspace(0.0, 1.0, 13)
-        dth = wrap(UP - float(q[2]))
-        candidates = [
-            (y, abs(x - q[0]), x)
-            for y in np.arange(0.5, y_hi, 0.1)
-            for x in np.arange(0.4, cfg.world_max_x - 0.3, 0.1)
+
+class SweepTargetController(_StopAtGoal, _UprightController):
+    """Sweep the target down onto the middle wall with the upright bar, turning leftwards.
+
+    Objects: ``(robot, hook, target)``. The robot turns the hook upright, rises with the bar
+    just right of the target to the top of its half, turns anticlockwise (the bar's left side
+    pushes the target down and to the left) as far as the hook stays inside the room, and
+    drives down with the arm retracting, pressing the target onto the middle wall.
+    """
+
+    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
+    params_doc = (
+        "(gap, arm): the upright bar rises 0.03 + 0.12·gap metres right of the target; the arm "
+        "is extended by arm·0.12 metres (less where the hook would touch the top wall)."
+    )
+
+    def waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
+        cfg = self.context.config
+        robot, hook, target = self.objects
+        br = float(state[robot][BASE_RADIUS])
+        q = kin_config(state, robot)
+        tgt = block_corners(state, target)
+        bar_dx = _hook_offsets_when_up(state, robot, hook)[0]
+        w = state.get(hook, "width")
+        x_s = float(tgt[:, 0].max()) + 0.03 + 0.12 * float(self.params[0]) + w - bar_dx
+        if not (
+            cfg.world_min_x + br < x_s < cfg.world_max_x - br
+            and self._hook_inside(state, (x_s, br + 0.05, UP, br))
+        ):
+            raise SkillFailure("SweepTarget: no room for the hook right of the target")
+        y_top = (cfg.world_min_y + cfg.world_max_y) / 2 - cfg.wall_height / 2 - br - 0.02
+        wps, _ = self._turn_upright(state, x_s)
+        arm = br + 0.12 * float(self.params[1])
+        while arm > br and not self._hook_inside(state, (x_s, y_top, UP, arm)):
+            arm = max(br, arm - 0.02)
+        turn = 0.0
+        while turn < SWEEP_TURN and self._hook_inside(state, (x_s, y_top, UP + turn + 0.05, arm)):
+            turn += 0.05
+        if turn < 0.3:
+            raise SkillFailure("SweepTarget: no room to turn the hook leftwards")
+        return [
+            *wps,
+            KinWaypoint(x_s, y_top, UP, arm, q[4]),
+            KinWaypoint(x_s, y_top, UP + turn, arm, q[4], speed=0.5),
+            KinWaypoint(x_s, br + 0.05, UP + turn, br, q[4], speed=0.5),
         ]
-        for y, _, x in sorted(candidates):
-            ok = True
-            for t in angles:
-                rot = dth * t
-                c, s = math.cos(rot), math.sin(rot)
-                hx = x + c * hook_rel[0] - s * hook_rel[1]
-                hy = y + s * hook_rel[0] + c * hook_rel[1]
-                x0, x1, y0, y1 = bounds(place(local, hx, hy, h[2] + rot))
-                if (
-                    x0 <= 0.02
-                    or x1 >= cfg.world_max_x - 0.02
-                    or y0 <= 0.02
-                    or (y1 >= cfg.world_max_y - 0.02)
-                ):
-                    ok = False
-                    break
-            if ok:
-                return float(x), float(y)
-        raise SkillFailure("PreHook: nowhere to turn the hook upright")
+
+    def _hook_inside(
+        self, state: ObjectCentricState, pose: tuple[float, float, float, float]
+    ) -> bool:
+        """Whether the held hook stays 4 cm inside the world with the robot at ``pose``
+        ``(x, y, theta, arm)`` (the hook moves rigidly with the gripper)."""
+        cfg = self.context.config
+        robot, hook = self.objects[:2]
+        q = kin_config(state, robot)
+        x, y, th, arm = pose
+        d = th - float(q[2])
+        c, s = math.cos(d), math.sin(d)
+        grip = np.array([q[0] + q[3] * math.cos(q[2]), q[1] + q[3] * math.sin(q[2])])
+        rel = np.asarray(state[hook][:2]) - grip
+        hx = x + arm * math.cos(th) + c * rel[0] - s * rel[1]
+        hy = y + arm * math.sin(th) + s * rel[0] + c * rel[1]
+        x0, x1, y0, y1 = bounds(place(_hook_local(state, hook), hx, hy, state[hook][2] + d))
+        return bool(
+            x0 > cfg.world_min_x + 0.04
+            and x1 < cfg.world_max_x - 0.04
+            and y0 > cfg.world_min_y + 0.04
+            and y1 < cfg.world_max_y - 0.04
+        )
+
+
+def _hook_local(state: ObjectCentricState, hook: Object) -> LocalShape:
+    """The hook's shape in its own frame."""
+    w, s1, s2 = (state.get(hook, k) for k in ("width", "length_side1", "length_side2"))
+    return lobject_shape(w, s1, s2)
 
 
 def _hook_offsets_when_up(
@@ -411,7 +666,7 @@ def _hook_offsets_when_up(
     return float(bar[:, 0].max()), float(arm[:, 1].min()), float(arm[:, 0].max())
 
 
-class HookDownController(_HookController):
+class HookDownController(_StopAtGoal, _HookController):
     """Drive straight down, dragging the target with the short arm. Objects: ``(robot, hook,
     target)``."""
 
@@ -420,8 +675,14 @@ class HookDownController(_HookController):
 
     def waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
         q = kin_config(state, self.robot)
-        y_low = float(state[self.robot][BASE_RADIUS]) + 0.05
-        return [KinWaypoint(q[0], y_low, q[2], q[3], q[4], speed=0.6)]
+        br = float(state[self.robot][BASE_RADIUS])
+        y_low = br + 0.05
+        # Down with the arm retracting, then turn clockwise: the short arm tilts down like a
+        # rake's tooth and presses a target still short of the wall onto it.
+        return [
+            KinWaypoint(q[0], y_low, q[2], br, q[4], speed=0.6),
+            KinWaypoint(q[0], y_low, q[2] - HOOK_DOWN_SWEEP, br, q[4], speed=0.5),
+        ]
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
@@ -463,6 +724,13 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         frozenset({HookAbove.lift([h, t])}),
     )
 
+    sweep = LiftedOperator(
+        "SweepTarget",
+        (r, h, t),
+        frozenset({HoldingHook.lift([r, h])}),
+        frozenset({TargetAtGoal.lift([t])}),
+    )
+
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
         return frozenset({TargetAtGoal.ground([o]) for o in state.get_objects(target_t)})
 
@@ -475,6 +743,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
             Skill(grasp, GraspHookController, env),
             Skill(prehook, PreHookController, env),
             Skill(down, HookDownController, env),
+            Skill(sweep, SweepTargetController, env),
         ),
         goal_fn=goal,
         max_skill_horizon=250,
