@@ -195,6 +195,46 @@ def test_dynpushpullhook2d_the_target_reaches_the_wall_swept_or_raked(
     assert out.finished and env.goal_reached(out.states[-1])
 
 
+def test_clear_surface_pushes_the_blocks_close_behind_along() -> None:
+    """o3 seed 2: obstruction0 cannot be pushed left alone (no posture fits the gap behind
+    it); pushed together with the block close behind it, the whole chain ends off the
+    surface. PushTarget never pushes chains (they would end on the surface)."""
+    from kinder_gym.models.dynamic2d.dyn_obstruction2d import (
+        ClearSurfaceController,
+        PushTargetController,
+        footprint,
+    )
+
+    env = make_object_centric("kinder/DynObstruction2D-o3-v0")
+    model = create_model(env)
+    state = env.reset(seed=2)[0]
+    op = next(
+        o
+        for o in model.ground_operators(state)
+        if o.name.startswith("ClearSurface(robot, obstruction0")
+    )
+    controller = model.skill(op).controller
+    assert isinstance(controller, ClearSurfaceController) and controller.pushes_chains
+    assert not PushTargetController.pushes_chains
+    params = np.array([0.25, 0.5])
+    controller.params, controller.state = params, state
+    controller.pushes_chains = False
+    with pytest.raises(SkillFailure):
+        controller.waypoints(state)
+    controller.pushes_chains = True
+    out = execute_skill(controller, state, params, env.transition, 200, stop_on_goal=False)
+    end = out.states[-1]
+    assert out.finished and op.add_effects <= model.abstract(end)
+    surface_lo = footprint(end, env.target_surface)[0]
+    moved = [
+        b
+        for b in end.get_objects(env.obstructions[0].type)
+        if abs(end.get(b, "x") - state.get(b, "x")) > 0.05
+    ]
+    assert len(moved) >= 2  # the obstruction and the block behind it
+    assert all(footprint(end, b)[1] < surface_lo for b in moved)
+
+
 def test_a_push_that_clears_a_second_obstruction_is_accepted() -> None:
     """NotObstructing is monotone with Obstructing as its negation: a ClearSurface that also
     shoves another obstruction off the surface is accepted, one that puts one back is not."""

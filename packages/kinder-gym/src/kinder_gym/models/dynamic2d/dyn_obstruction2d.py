@@ -17,6 +17,12 @@ as 0.16 m to a wall or touch each other. The skill tries three postures, roomies
    block and only the fingers reach into the gap; the contact pose is found on the geometry
    (the last base x before the robot touches the block, with only the fingers touching it).
 
+With closed fingers the gripper base passes above every block beside the finger along the push,
+not just the pushed one (the fingertips stay at least 6 cm below the pushed block's top). When no
+posture fits behind an obstruction, ClearSurface pushes it together with the blocks standing less
+than 15 cm behind it (at most two), from the last one's trailing side, until the whole chain is
+off the surface; PushTarget never does (the blocks behind the target would end on the surface).
+
 Version notes: postures 2 and 3 were added in session 7. Before, only the first existed and the
 first planning call failed on 27 of 50 o1 episodes, 14 of them for want of room behind the
 target; BP SR went from 0.54 to 0.77 on o1 (5 × 50) and from 0.78 to 0.98 on o0 (5 × 10)
@@ -26,7 +32,9 @@ push that shoves a second obstruction off the surface as well, common on o3 wher
 touch each other, is accepted instead of rejected as a mismatch, and that obstruction's own
 ``ClearSurface`` is skipped (o3's first planning call: 5 → 20 of 50 episodes solved). What still
 fails: blocks with no room even for leaning fingers, and pushes that move another block the
-wrong way (the target, or an obstruction back onto the surface).
+wrong way (the target, or an obstruction back onto the surface). Session 8 added the chain
+pushes and the gripper-base clearance above neighbours: o3's first planning call 20 → 32 of 50
+episodes, o1's 37 → 42 (``benchmarks/bp_failure_causes.py``).
 
 Concepts:
 
@@ -98,8 +106,41 @@ APPROACH_GAP = 0.03
 #: The last part of a push (metres) is done at reduced speed.
 SLOW_ZONE = 0.1
 SLOW_SPEED = 0.2
+#: The closed fingers' tips stay at least this far (metres) below the pushed block's top.
+MIN_FINGER_CONTACT = 0.06
+#: ClearSurface pushes along the blocks standing less than this (metres) behind the block (at
+#: most MAX_CHAIN of them) when there is no room to push the block alone.
+CHAIN_GAP = 0.15
+MAX_CHAIN = 2
 #: Lean (radians from straight down) of the closed fingers when there is no room to push upright.
 TILTS = (0.35, 0.5)
+
+
+def _overlap(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    return a[0] < b[1] and b[0] < a[1]
+
+
+def _width(state: ObjectCentricState, block: Object) -> float:
+    lo, hi = footprint(state, block)
+    return hi - lo
+
+
+def _close_behind(
+    state: ObjectCentricState, block: Object, sign: float, exclude: Sequence[Object]
+) -> Object | None:
+    """The nearest block standing less than CHAIN_GAP behind ``block`` (pushed towards
+    ``sign``), if any."""
+    lo, hi = footprint(state, block)
+    trail = lo if sign > 0 else hi
+    best: tuple[float, Object] | None = None
+    for other in state.get_objects(ot.DYN_RECTANGLE):
+        if other == block or other in exclude:
+            continue
+        o_lo, o_hi = footprint(state, other)
+        gap = sign * (trail - (o_hi if sign > 0 else o_lo))
+        if -0.01 <= gap < CHAIN_GAP and (best is None or gap < best[0]):
+            best = (gap, other)
+    return None if best is None else best[1]
 
 
 def footprint(state: ObjectCentricState, block: Object) -> tuple[float, float]:
@@ -134,30 +175,61 @@ class PushController(KinRobotController):
     (:meth:`goal_x`).
     """
 
+    #: Whether the skill may push the blocks standing close behind the block along with it.
+    pushes_chains = False
+
     @abc.abstractmethod
     def goal_x(self, state: ObjectCentricState) -> float:
         """Where the block's centre should end (metres)."""
+
+    def chain_trail_goal(
+        self, state: ObjectCentricState, chain: Sequence[Object], sign: float
+    ) -> float:
+        """Where the trailing side of the pushed chain (the block, then the blocks pushed along
+        behind it, packed) should end (metres). Default: the block's centre at :meth:`goal_x`."""
+        block = self.objects[1]
+        lo, hi = footprint(state, block)
+        trail = self.goal_x(state) - (state.get(block, "x") - (lo if sign > 0 else hi))
+        return trail - sign * sum(_width(state, b) for b in chain[1:])
 
     def waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
         v = state[self.objects[0]]
         open_gap, closed_gap = float(v[GRIPPER_BASE_HEIGHT]), 2 * float(v[FINGER_HEIGHT])
         # Roomiest first (module docstring): open fingers; closed fingers (~0.1 m less room, the
         # tips raised so the gripper base passes above the block); closed fingers leaning into
-        # the gap so the base stands above the block.
+        # the gap so the base stands above the block. Then, where allowed, the same behind the
+        # blocks that stand too close behind the block, pushing them along.
         postures = [(open_gap, 0.0), (closed_gap, 0.0), *((closed_gap, t) for t in TILTS)]
-        for gap, tilt in postures[:-1]:
-            try:
-                return self._push_waypoints(state, gap, tilt)
-            except SkillFailure:
-                pass
-        return self._push_waypoints(state, *postures[-1])  # its failure is the skill's
+        block = self.objects[1]
+        sign = 1.0 if self.goal_x(state) >= state.get(block, "x") else -1.0
+        chains = [[block]]
+        while self.pushes_chains and len(chains) <= MAX_CHAIN:
+            behind = _close_behind(state, chains[-1][-1], sign, exclude=chains[-1])
+            if behind is None:
+                break
+            chains.append([*chains[-1], behind])
+        first: SkillFailure | None = None
+        for chain in chains:
+            for gap, tilt in postures:
+                try:
+                    return self._push_waypoints(state, gap, tilt, chain)
+                except SkillFailure as e:
+                    first = first or e
+        assert first is not None
+        raise first  # the lone block's roomiest posture says best what failed
 
     def _push_waypoints(
-        self, state: ObjectCentricState, gap: float, tilt: float = 0.0
+        self,
+        state: ObjectCentricState,
+        gap: float,
+        tilt: float = 0.0,
+        chain: Sequence[Object] = (),
     ) -> list[KinWaypoint]:
         env = self.context
         cfg = env.config
-        robot, block = self.objects[0], self.objects[1]
+        robot = self.objects[0]
+        chain = list(chain) or [self.objects[1]]
+        block = chain[-1]  # the block the finger touches
         v = state[robot]
         arm = float(v[ARM_LENGTH])
         finger_len = float(v[FINGER_WIDTH])
@@ -169,27 +241,37 @@ class PushController(KinRobotController):
         y_safe = highest + TRAVEL_CLEARANCE + reach
         if y_safe + float(v[16]) > cfg.world_max_y - 0.01:
             raise SkillFailure("no room to travel above the blocks")
-        x_goal = self.goal_x(state)
+        first = self.objects[1]
+        sign = 1.0 if self.goal_x(state) >= state.get(first, "x") else -1.0
         lo, hi = footprint(state, block)
-        x_now = state.get(block, "x")
-        sign = 1.0 if x_goal >= x_now else -1.0
-        # The leading finger's outer face touches the block's trailing side.
+        # The leading finger's outer face touches the chain's trailing side.
         contact = lo if sign > 0 else hi
+        trail_goal = self.chain_trail_goal(state, chain, sign)
         x_push0 = contact - sign * (half_span + APPROACH_GAP)
-        x_push1 = x_goal - (x_now - contact) - sign * half_span
+        x_push1 = trail_goal - sign * half_span
         # Fingertips just above the table; the base must clear the pushed block's top, and with
         # the fingers closed the gripper base (which then reaches over the block) too.
         tip = max(table_top + PUSH_CLEARANCE, top(state, block) - (reach - float(v[16])) + 0.01)
         if half_span < float(v[GRIPPER_BASE_HEIGHT]) / 2:
-            tip = max(tip, top(state, block) - finger_len + 0.01)
+            # The gripper base reaches over the pushed block and whatever stands beside the
+            # finger along the push: it passes above them all, the finger still below the
+            # pushed block's top.
+            reach_x = float(v[GRIPPER_BASE_HEIGHT]) / 2
+            span = (min(x_push0, x_push1) - reach_x, max(x_push0, x_push1) + reach_x)
+            under = [b for b in blocks if _overlap(footprint(state, b), span)]
+            tip = max([tip] + [top(state, b) - finger_len + 0.01 for b in under])
+            if tip > top(state, block) - MIN_FINGER_CONTACT:
+                raise SkillFailure(
+                    "the gripper base cannot pass above the blocks beside the finger"
+                )
         y_push = tip + reach
         down = -math.pi / 2
         theta = down
         if tilt > 0.0:
             theta = wrap(down - sign * tilt)
-            contact_x, y_push = self._leaning_contact(state, gap, theta, sign)
+            contact_x, y_push = self._leaning_contact(state, block, gap, theta, sign)
             x_push0 = contact_x - sign * APPROACH_GAP
-            x_push1 = contact_x + (x_goal - x_now)
+            x_push1 = contact_x + (trail_goal - contact)
         q = kin_config(state, robot)
         margin = float(q[3]) + float(v[GRIPPER_BASE_WIDTH]) / 2 + float(v[FINGER_WIDTH]) + 0.03
         x_turn = float(np.clip(q[0], cfg.world_min_x + margin, cfg.world_max_x - margin))
@@ -212,12 +294,12 @@ class PushController(KinRobotController):
         return wps
 
     def _leaning_contact(
-        self, state: ObjectCentricState, gap: float, theta: float, sign: float
+        self, state: ObjectCentricState, block: Object, gap: float, theta: float, sign: float
     ) -> tuple[float, float]:
         """Base ``(x, y)`` at which the leaning fingers (and nothing else of the robot) touch the
         block's trailing side, the fingertips as low as the gripper base lets them be."""
         env = self.context
-        robot, block = self.objects[0], self.objects[1]
+        robot = self.objects[0]
         vec = state[robot].copy()
         vec[2], vec[17], vec[FINGER_GAP] = theta, vec[ARM_LENGTH], gap
         w, h = state.get(block, "width"), state.get(block, "height")
@@ -287,6 +369,8 @@ class ClearSurfaceController(PushController):
             side = 1.0 - side
         return np.array([side, rng.uniform()])
 
+    pushes_chains = True
+
     def goal_x(self, state: ObjectCentricState) -> float:
         _, block, surface = self.objects[:3]
         side, extra = (float(p) for p in self.params)
@@ -295,6 +379,16 @@ class ClearSurfaceController(PushController):
         s_lo, s_hi = footprint(state, surface)
         gap = 0.02 + 0.2 * extra
         return s_hi + gap + half if side >= 0.5 else s_lo - gap - half
+
+    def chain_trail_goal(
+        self, state: ObjectCentricState, chain: Sequence[Object], sign: float
+    ) -> float:
+        """The whole chain ends beyond the surface's edge (the blocks pushed along behind the
+        obstruction would otherwise end on the surface)."""
+        surface = self.objects[2]
+        s_lo, s_hi = footprint(state, surface)
+        gap = 0.02 + 0.2 * float(self.params[1])
+        return s_hi + gap if sign > 0 else s_lo - gap
 
 
 class PushTargetController(PushController):
