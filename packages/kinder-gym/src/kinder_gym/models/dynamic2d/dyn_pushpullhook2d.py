@@ -272,12 +272,40 @@ class GraspHookController(_HookController):
         gap = 2 * fh
         q = kin_config(state, robot)
         low_y = cfg.world_min_y + br + 0.06
-        wps = [
-            KinWaypoint(q[0], q[1], th, br, gap),
-            KinWaypoint(*world(pre), th, br, gap),
-            KinWaypoint(*world(pre), th, al, gap),
+        px, py = world(pre)
+
+        def approach(x: float, y: float, heading: float) -> list[KinWaypoint]:
+            return [
+                KinWaypoint(x, y, q[2], br, gap),  # retract and close before turning
+                KinWaypoint(x, y, heading, br, gap),
+                KinWaypoint(px, py, heading, br, gap),
+                KinWaypoint(px, py, th, br, gap),
+                KinWaypoint(px, py, th, al, gap),
+            ]
+
+        # Where the robot starts with its fingers by the bar, it first backs off to the lower
+        # left as it stands (open fingers may fit there where closing ones do not); it drives
+        # to the start of the push facing along the bar or already tilted (the fingertips
+        # then reach higher, nearer the bar).
+        away = (max(cfg.world_min_x + br + 0.02, q[0] - 0.1), cfg.world_min_y + br + 0.02)
+        routes = [
+            ([], approach(q[0], q[1], th)),
+            ([], approach(q[0], q[1], hth)),
+            ([KinWaypoint(*away, *q[2:])], approach(*away, th)),
+            ([KinWaypoint(*away, *q[2:])], approach(*away, hth)),
         ]
-        self._check_path(state, q, wps)
+        first_failure: SkillFailure | None = None
+        for lead, route in routes:
+            try:
+                self._check_path(state, q, [*lead, *route])
+            except SkillFailure as e:
+                first_failure = first_failure or e
+                continue
+            wps = [*lead, *route]
+            break
+        else:
+            assert first_failure is not None
+            raise first_failure
         end_x = hx - c * (s1 - push) + s * w / 2  # where the free end will be
         leave_x = max(cfg.world_min_x + br + 0.05, end_x - 0.5)
         return [
