@@ -81,3 +81,33 @@ def test_scooppour_fails_when_every_move_is_blocked() -> None:
 
     with pytest.raises(SkillFailure, match="stuck"):
         execute_skill(controller, state, np.array([0.4, 0.03, 1.0, 1.2]), frozen, 1000)
+
+
+def test_the_lift_over_the_wall_moves_right_as_it_rises() -> None:
+    """The pour's first move rises and moves right at once (a diagonal costs no more actions than
+    its longer side), stopping 5 cm short of the wall with the robot and the scoop."""
+    from kinder_garden2d.dynamic2d.geometry import bounds, lobject_shape, place
+    from kinder_gym.models.dynamic2d.dyn_scooppour2d import CARRY_Y, WALL_MARGIN
+
+    env = make_object_centric("kinder/DynScoopPour2D-o10-v0")
+    model = create_model(env)
+    state = env.reset(seed=4)[0]
+    ops = {o.name: o for o in model.ground_operators(state)}
+    grasp = model.skill(ops["GraspScoop(robot, hook)"]).controller
+    state = execute_skill(grasp, state, np.zeros(0), env.transition, 1000).states[-1]
+    controller = model.skill(ops["ScoopAndPour(robot, hook)"]).controller
+    controller.reset(state, np.array([0.4, 0.03, 1.0, 1.2]))
+    while controller._phases:  # run the first trip until its pour phase starts
+        state = env.transition(state, controller.step())[0]
+        controller.observe(state)
+    robot, hook = env.robot, env.hook  # type: ignore[attr-defined]
+    x0 = state.get(robot, "x")
+    target, _, _ = controller._pour(state)[0]
+    assert target[1] == CARRY_Y and target[0] > x0 + 0.1
+    # At the first move's end the scoop (moved rigidly with the robot) is still left of the wall.
+    w, s1, s2 = (state.get(hook, k) for k in ("width", "length_side1", "length_side2"))
+    h = state[hook]
+    right = bounds(place(lobject_shape(w, s1, s2), h[0] + target[0] - x0, h[1], h[2]))[1]
+    cfg = env.config  # type: ignore[attr-defined]
+    wall_left = cfg.wall_center_x - cfg.wall_width / 2
+    assert right <= wall_left - WALL_MARGIN + 1e-9
