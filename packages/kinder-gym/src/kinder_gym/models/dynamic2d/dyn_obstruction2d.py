@@ -200,9 +200,8 @@ class PushController(KinRobotController):
         # the gap so the base stands above the block. Then, where allowed, the same behind the
         # blocks that stand too close behind the block, pushing them along.
         postures = [(open_gap, 0.0), (closed_gap, 0.0), *((closed_gap, t) for t in TILTS)]
-        block = self.objects[1]
-        sign = 1.0 if self.goal_x(state) >= state.get(block, "x") else -1.0
-        chains = [[block]]
+        sign = self._direction(state)
+        chains = [[self.objects[1]]]
         while self.pushes_chains and len(chains) <= MAX_CHAIN:
             behind = _close_behind(state, chains[-1][-1], sign, exclude=chains[-1])
             if behind is None:
@@ -217,6 +216,10 @@ class PushController(KinRobotController):
                     first = first or e
         assert first is not None
         raise first  # the lone block's roomiest posture says best what failed
+
+    def _direction(self, state: ObjectCentricState) -> float:
+        """+1 when the block is pushed right, −1 left."""
+        return 1.0 if self.goal_x(state) >= state.get(self.objects[1], "x") else -1.0
 
     def _push_waypoints(
         self,
@@ -241,8 +244,7 @@ class PushController(KinRobotController):
         y_safe = highest + TRAVEL_CLEARANCE + reach
         if y_safe + float(v[16]) > cfg.world_max_y - 0.01:
             raise SkillFailure("no room to travel above the blocks")
-        first = self.objects[1]
-        sign = 1.0 if self.goal_x(state) >= state.get(first, "x") else -1.0
+        sign = self._direction(state)
         lo, hi = footprint(state, block)
         # The leading finger's outer face touches the chain's trailing side.
         contact = lo if sign > 0 else hi
@@ -353,6 +355,8 @@ class PushController(KinRobotController):
 class ClearSurfaceController(PushController):
     """Push an obstruction off the surface's x-range. Objects: ``(robot, obstruction, surface)``."""
 
+    pushes_chains = True
+
     params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
     params_doc = (
         "(side, extra): side < 0.5 pushes the block to the left of the surface, else to the "
@@ -368,8 +372,6 @@ class ClearSurfaceController(PushController):
         if rng.uniform() < 0.2:
             side = 1.0 - side
         return np.array([side, rng.uniform()])
-
-    pushes_chains = True
 
     def goal_x(self, state: ObjectCentricState) -> float:
         _, block, surface = self.objects[:3]

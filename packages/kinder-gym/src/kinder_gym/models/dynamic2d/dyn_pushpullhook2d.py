@@ -109,11 +109,22 @@ SWEEP_TURN = 1.4
 HOOK_DOWN_SWEEP = 0.6
 
 
+def hook_local(state: ObjectCentricState, hook: Object) -> LocalShape:
+    """The hook's two boxes in its own frame."""
+    w, s1, s2 = (state.get(hook, k) for k in ("width", "length_side1", "length_side2"))
+    return lobject_shape(w, s1, s2)
+
+
 def hook_shape(state: ObjectCentricState, hook: Object) -> WorldShape:
     """The hook's two boxes in the world."""
     h = state[hook]
-    w, s1, s2 = (state.get(hook, k) for k in ("width", "length_side1", "length_side2"))
-    return place(lobject_shape(w, s1, s2), h[0], h[1], h[2])
+    return place(hook_local(state, hook), h[0], h[1], h[2])
+
+
+def block_shape(state: ObjectCentricState, block: Object) -> WorldShape:
+    """A rectangle block in the world."""
+    f = state[block]
+    return place(rect_shape(state.get(block, "width"), state.get(block, "height")), *f[:3])
 
 
 def short_arm(state: ObjectCentricState, hook: Object) -> FloatArray:
@@ -175,8 +186,7 @@ class _HookController(KinRobotController):
             if o.type.is_subtype_of(ot.LOBJECT):
                 other = hook_shape(state, o)
             else:
-                f = state[o]
-                other = place(rect_shape(state.get(o, "width"), state.get(o, "height")), *f[:3])
+                other = block_shape(state, o)
             if overlaps(shape, other):
                 return o.name
         return None
@@ -216,7 +226,7 @@ class GraspHookController(_HookController):
         if self._shoving and super().terminated():
             # The shove is done: plan the grasp from where the hook came to rest.
             self._shoving = False
-            self._plan, self._k, self._waited, self._last = self.waypoints(self.state), 0, 0, None
+            self._follow(self.waypoints(self.state))
         return super().step()
 
     def terminated(self) -> bool:
@@ -448,22 +458,26 @@ class _StopAtGoal(KinRobotController):
         )
 
 
+def _first_turn(q: FloatArray) -> float:
+    """The first part (rad) of the turn from ``q``'s heading to upright: TURN_SHORT short of
+    it (none when the turn is shorter than that)."""
+    dth = wrap(UP - float(q[2]))
+    return wrap(dth - math.copysign(TURN_SHORT, dth)) if abs(dth) > TURN_SHORT else 0.0
+
+
 class _UprightController(_HookController):
     """Skills that start by turning the held hook upright. Objects: ``(robot, hook, target)``."""
 
     def initiable(self, state: ObjectCentricState) -> bool:
         return state.get(self.objects[1], "held") > 0.5
 
-    def _turn_upright(
-        self, state: ObjectCentricState, x_near: float
-    ) -> tuple[list[KinWaypoint], float]:
+    def _turn_upright(self, state: ObjectCentricState, x_near: float) -> list[KinWaypoint]:
         """Waypoints that retract the arm, turn the robot upright (see :meth:`_turning_spot`)
-        and bring it below ``x_near``; and the base y they end at."""
+        and bring it below ``x_near``."""
         q = kin_config(state, self.robot)
         br = float(state[self.robot][BASE_RADIUS])
         x_t, y_turn, y_up = self._turning_spot(state, q, x_near)
-        dth = wrap(UP - float(q[2]))
-        th_short = q[2] + dth - math.copysign(TURN_SHORT, dth) if abs(dth) > TURN_SHORT else q[2]
+        th_short = q[2] + _first_turn(q)
         return [
             KinWaypoint(x_t, y_turn, q[2], q[3], q[4]),
             KinWaypoint(x_t, y_turn, q[2], br, q[4]),
@@ -471,7 +485,7 @@ class _UprightController(_HookController):
             KinWaypoint(x_t, y_up, wrap(th_short), br, q[4]),
             KinWaypoint(x_t, y_up, UP, br, q[4]),
             KinWaypoint(x_near, y_up, UP, br, q[4]),
-        ], y_up
+        ]
 
     def _turning_spot(
         self, state: ObjectCentricState, q: FloatArray, x_near: float
@@ -491,14 +505,12 @@ class _UprightController(_HookController):
         drop = float(q[3]) - br  # retracting pulls the hook this far back along the heading
         heading = np.array([math.cos(q[2]), math.sin(q[2])])
         hook_rel = np.asarray(h[:2]) - base - drop * heading
-        w, s1, s2 = (state.get(hook, k) for k in ("width", "length_side1", "length_side2"))
-        local = lobject_shape(w, s1, s2)
-        f = state[target]
-        tgt = place(rect_shape(state.get(target, "width"), state.get(target, "height")), *f[:3])
+        local = hook_local(state, hook)
+        tgt = block_shape(state, target)
         mid = (cfg.world_min_y + cfg.world_max_y) / 2
         y_hi = mid - cfg.wall_height / 2 - br - 0.02
         dth = wrap(UP - float(q[2]))
-        short = wrap(dth - math.copysign(TURN_SHORT, dth)) if abs(dth) > TURN_SHORT else 0.0
+        short = _first_turn(q)
 
         def hook_at(x: float, y: float, rot: float) -> WorldShape:
             c, s = math.cos(rot), math.sin(rot)
@@ -592,7 +604,7 @@ class PreHookController(_UprightController):
             raise SkillFailure("PreHook: the base would leave the world")
         # Turn upright as near below x_a as the hook allows: the rake then rises beside the
         # target rather than sweeping across it.
-        wps, _ = self._turn_upright(state, x_a)
+        wps = self._turn_upright(state, x_a)
         return [
             *wps,
             KinWaypoint(x_a, y_f, UP, arm, q[4]),
@@ -630,7 +642,7 @@ class SweepTargetController(_StopAtGoal, _UprightController):
         ):
             raise SkillFailure("SweepTarget: no room for the hook right of the target")
         y_top = (cfg.world_min_y + cfg.world_max_y) / 2 - cfg.wall_height / 2 - br - 0.02
-        wps, _ = self._turn_upright(state, x_s)
+        wps = self._turn_upright(state, x_s)
         arm = br + 0.12 * float(self.params[1])
         while arm > br and not self._hook_inside(state, (x_s, y_top, UP, arm)):
             arm = max(br, arm - 0.02)
@@ -661,19 +673,13 @@ class SweepTargetController(_StopAtGoal, _UprightController):
         rel = np.asarray(state[hook][:2]) - grip
         hx = x + arm * math.cos(th) + c * rel[0] - s * rel[1]
         hy = y + arm * math.sin(th) + s * rel[0] + c * rel[1]
-        x0, x1, y0, y1 = bounds(place(_hook_local(state, hook), hx, hy, state[hook][2] + d))
+        x0, x1, y0, y1 = bounds(place(hook_local(state, hook), hx, hy, state[hook][2] + d))
         return bool(
             x0 > cfg.world_min_x + 0.04
             and x1 < cfg.world_max_x - 0.04
             and y0 > cfg.world_min_y + 0.04
             and y1 < cfg.world_max_y - 0.04
         )
-
-
-def _hook_local(state: ObjectCentricState, hook: Object) -> LocalShape:
-    """The hook's shape in its own frame."""
-    w, s1, s2 = (state.get(hook, k) for k in ("width", "length_side1", "length_side2"))
-    return lobject_shape(w, s1, s2)
 
 
 def _hook_offsets_when_up(

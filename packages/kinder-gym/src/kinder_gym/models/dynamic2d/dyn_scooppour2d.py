@@ -59,9 +59,10 @@ from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden2d.dynamic2d import object_types as ot
-from kinder_garden2d.dynamic2d.geometry import bounds, lobject_shape, place
+from kinder_garden2d.dynamic2d.geometry import bounds
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.dynamic2d.dyn_pushpullhook2d import hook_shape
 from kinder_gym.models.dynamic2d.kin_robot import (
     ARM_JOINT,
     BASE_RADIUS,
@@ -291,10 +292,7 @@ class ScoopAndPourController(_PhasedController):
         # Rise and move right at once (a diagonal costs no more steps than its longer side), as
         # far right as keeps the robot and the scoop left of the wall until they are above it.
         cfg = self._env.config
-        hook = self.objects[1]
-        w, s1, s2 = (state.get(hook, k) for k in ("width", "length_side1", "length_side2"))
-        h = state[hook]
-        scoop_right = bounds(place(lobject_shape(w, s1, s2), h[0], h[1], h[2]))[1] - q[0]
+        scoop_right = bounds(hook_shape(state, self.objects[1]))[1] - q[0]
         v = state[self.objects[0]]
         right = max(scoop_right, float(v[BASE_RADIUS]), float(v[GRIPPER_BASE_HEIGHT]) / 2)
         wall_left = cfg.wall_center_x - cfg.wall_width / 2

@@ -69,10 +69,8 @@ class KinRobotController(Controller):
     def reset(self, state: ObjectCentricState, params: Sequence[float] | FloatArray) -> None:
         super().reset(state, params)
         self._max = np.asarray(self.context.action_space.high, dtype=np.float64)
-        self._plan = list(self.waypoints(state))
-        self._k = 0
-        self._waited = 0
         self._last: FloatArray | None = None
+        self._follow(list(self.waypoints(state)))
         self._last_moved_base = False
 
     @property
@@ -83,6 +81,11 @@ class KinRobotController(Controller):
     @abc.abstractmethod
     def waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
         """The waypoints to follow from ``state`` (raise SkillFailure when there are none)."""
+
+    def _follow(self, waypoints: list[KinWaypoint]) -> None:
+        """Follow ``waypoints`` from the start (a skill whose next phase is planned from the
+        state its first phase left)."""
+        self._plan, self._k, self._waited, self._last = waypoints, 0, 0, None
 
     def _advance(self, q: FloatArray) -> FloatArray | None:
         """The next action, or None when every waypoint is done."""
