@@ -134,8 +134,10 @@ class CupboardContext:
 class _Cupboard:
     """A cupboard's opening and goal shelf in a state (fixed per episode)."""
 
-    def __init__(self, ctx: CupboardContext, cupboard: Object, state: ObjectCentricState) -> None:
-        frame = ctx.env.regions.transform(state, ctx.regions[cupboard])  # type: ignore[attr-defined]
+    def __init__(
+        self, ctx: CupboardContext, cupboard: Object, region: str, state: ObjectCentricState
+    ) -> None:
+        frame = ctx.env.regions.transform(state, region)  # type: ignore[attr-defined]
         self.shelf = np.asarray(frame[:3, 3], dtype=np.float64)  # goal shelf top, centre
         self.front = np.asarray(frame[:2, 1], dtype=np.float64)  # out of the opening
         params = ctx.env.task.fixtures[cupboard.name].params  # type: ignore[attr-defined]
@@ -183,6 +185,10 @@ class PickController(_ShelfController):
     def initiable(self, state: ObjectCentricState) -> bool:
         return state.get(self.robot, "pos_gripper") < CLOSED
 
+    def _grip(self, state: ObjectCentricState, rod: Object) -> float:
+        """Distance (m) of the grasp point from the rod's end."""
+        return 0.01 + 0.02 * float(self.params[1])
+
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: CupboardContext = self.context
         robot, rod = self.objects
@@ -191,7 +197,7 @@ class PickController(_ShelfController):
             axis = -axis  # approach from the +axis end, facing -axis
         # `axis` points from the grasped end towards the rod's centre: the heading.
         end = centre[:2] - axis * _rod_length(state, rod) / 2
-        grip = 0.01 + 0.02 * float(self.params[1])
+        grip = self._grip(state, rod)
         dist = 0.50 + 0.10 * float(self.params[2])
         heading = math.atan2(axis[1], axis[0])
         point = end + grip * axis
@@ -281,23 +287,38 @@ class PlaceController(_ShelfController):
         "where the pinch point would otherwise come within 1.5 cm of the opening."
     )
 
+    #: Range (m) of the rod centre's final distance inside the opening.
+    depth_range = (0.02, 0.07)
+    #: Smallest distance (m) the pinch point keeps in front of the opening (negative: inside).
+    finger_clearance = FINGER_CLEARANCE
+    carry_speed = CARRY_SPEED
+    #: Height (m) of the rod's underside above the goal shelf while it slides in.
+    slide_above = SLIDE_ABOVE_SHELF
+
     def initiable(self, state: ObjectCentricState) -> bool:
         return state.get(self.robot, "pos_gripper") >= CLOSED
+
+    def _region(self, rod: Object, cupboard: Object) -> str | None:
+        """The goal region ``rod`` is placed into in ``cupboard`` (None: it has none)."""
+        ctx: CupboardContext = self.context
+        return ctx.regions.get(cupboard)
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: CupboardContext = self.context
         robot, rod, cupboard = self.objects
-        if cupboard not in ctx.regions:
+        region = self._region(rod, cupboard)
+        if region is None:
             raise SkillFailure(f"Place: {cupboard.name} has no goal region")
-        box = _Cupboard(ctx, cupboard, state)
+        box = _Cupboard(ctx, cupboard, region, state)
         opening = box.shelf[:2] + box.depth / 2 * box.front  # centre of the front edge
         half = _rod_length(state, rod) / 2
-        wanted = 0.02 + 0.05 * float(self.params[0])
+        lo, hi = self.depth_range
+        wanted = lo + (hi - lo) * float(self.params[0])
         local, angle = _rod_in_base(state, robot, rod)
         # The pinch point lies `reach` behind the rod's centre along the rod.
         pinch = pinch_position(base_pose(state, robot), arm_joints(state, robot))
         reach = float(np.linalg.norm(np.asarray(state[rod][:2]) - pinch[:2]))
-        depth = min(wanted, reach - FINGER_CLEARANCE)
+        depth = min(wanted, reach - self.finger_clearance)
         if depth < 0.015:
             raise SkillFailure("Place: the rod is held too near its centre to slide it in")
         outside = opening + (half + PRE_PLACE) * box.front
@@ -317,7 +338,7 @@ class PlaceController(_ShelfController):
         def to_shelf_height(s: ObjectCentricState) -> list[Segment]:
             here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
             heading = float(base_pose(s, robot)[2])
-            target_z = here[2] + box.shelf[2] + SLIDE_ABOVE_SHELF - _rod_bottom(s, rod)
+            target_z = here[2] + box.shelf[2] + self.slide_above - _rod_bottom(s, rod)
             pitch = _gripper_pitch(s, robot)
             return line_segments(s, robot, np.array([*here[:2], target_z]), heading, pitch, 1.0)
 
@@ -329,14 +350,15 @@ class PlaceController(_ShelfController):
             q = arm_joints(s, robot)
             return [
                 Segment(base=tuple(inside), arm=tuple(q), gripper=1.0, arm_tol=0.05,
-                        base_tol=0.005, max_steps=60, base_speed=CARRY_SPEED),
+                        base_tol=0.005, max_steps=60, base_speed=self.carry_speed),
                 Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS),
                 Segment(base=tuple(back), arm=tuple(q), gripper=0.0, arm_tol=0.05,
                         base_tol=0.02, max_steps=60),
             ]  # fmt: skip
 
-        carry = replace(self._drive(pre, arm, 1.0, 0.01), base_speed=CARRY_SPEED)
-        carry = replace(carry, max_steps=math.ceil(carry.max_steps * MAX_DELTA / CARRY_SPEED[0]))
+        carry = replace(self._drive(pre, arm, 1.0, 0.01), base_speed=self.carry_speed)
+        steps = math.ceil(carry.max_steps * MAX_DELTA / self.carry_speed[0])
+        carry = replace(carry, max_steps=steps)
         return [carry, level, to_shelf_height, slide_in]
 
 

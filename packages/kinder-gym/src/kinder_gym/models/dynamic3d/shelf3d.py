@@ -63,7 +63,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from gymnasium import spaces
@@ -123,6 +123,9 @@ OPEN_STEPS = 4
 GRASP_Z = 0.02
 #: Height (m) of the pinch point up to which a picked cube is lifted straight up.
 LIFT_CLEAR = 0.07
+#: Sideways offsets (m) of a detour's waypoint from the middle of a blocked straight base path
+#: (controllers with ``detours`` set).
+DETOURS = (0.2, -0.2, 0.4, -0.4)
 #: Arm joints from which IK finds the forward-reaching, elbow-up grasp configurations.
 READY = np.array([0.0, 0.26, math.pi, -2.27, 0.0, 0.96, math.pi / 2])
 
@@ -158,15 +161,21 @@ class ShelfContext:
     robot: Object
     cupboard: Object
     cubes: tuple[Object, ...]
+    #: Goal region of each cube, by name, where it is not :data:`GOAL_REGION` (another
+    #: family's cupboard with a region per shelf, SortClutteredBlocks3D-o12).
+    regions: dict[str, str] = field(default_factory=dict)
+
+    def region(self, cube: Object) -> str:
+        return self.regions.get(cube.name, GOAL_REGION)
 
 
 class _ShelfGeometry:
     """The cupboard and the goal region in a state (their frames are fixed per episode)."""
 
-    def __init__(self, ctx: ShelfContext, state: ObjectCentricState) -> None:
+    def __init__(self, ctx: ShelfContext, state: ObjectCentricState, region: str) -> None:
         env = ctx.env
-        frame = env.regions.transform(state, GOAL_REGION)  # type: ignore[attr-defined]
-        self.origin = np.asarray(frame[:3, 3], dtype=np.float64)  # shelf-2 top, centre
+        frame = env.regions.transform(state, region)  # type: ignore[attr-defined]
+        self.origin = np.asarray(frame[:3, 3], dtype=np.float64)  # goal shelf top, centre
         self.lateral = np.asarray(frame[:2, 0], dtype=np.float64)  # along the shelf
         self.front = np.asarray(frame[:2, 1], dtype=np.float64)  # out of the opening
         self.centre = np.array([state.get(ctx.cupboard, "x"), state.get(ctx.cupboard, "y")])
@@ -199,6 +208,29 @@ def _path_clear(
     return all(_segment_point_distance(a, b, p) > CUBE_CLEARANCE for p in obstacles)
 
 
+def _route(
+    geometry: _ShelfGeometry,
+    a: FloatArray,
+    b: FloatArray,
+    obstacles: Sequence[FloatArray],
+    detours: bool,
+) -> list[FloatArray] | None:
+    """The base's waypoints (x, y) from ``a``, ending at ``b``: straight when that is clear,
+    else (with ``detours``) through the first of :data:`DETOURS` beside the middle whose two
+    legs are clear; None when none is."""
+    if _path_clear(geometry, a, b, obstacles):
+        return [b]
+    length = float(np.linalg.norm(b - a))
+    if not detours or length < 1e-6:
+        return None
+    side = np.array([a[1] - b[1], b[0] - a[0]]) / length
+    for offset in DETOURS:
+        via = (a + b) / 2 + offset * side
+        if _path_clear(geometry, a, via, obstacles) and _path_clear(geometry, via, b, obstacles):
+            return [via, b]
+    return None
+
+
 def _spot_free(
     ctx: ShelfContext,
     state: ObjectCentricState,
@@ -206,10 +238,10 @@ def _spot_free(
     cube: Object,
     lateral: float,
 ) -> bool:
-    """Whether no other cube in the cupboard lies within ``SPACING`` along the shelf of
+    """Whether no other cube on the goal shelf lies within ``SPACING`` along the shelf of
     ``lateral``."""
     for other in ctx.cubes:
-        if other == cube:
+        if other == cube or abs(state.get(other, "z") - geometry.origin[2]) > 0.06:
             continue
         rel = np.array([state.get(other, "x"), state.get(other, "y")]) - geometry.origin[:2]
         inside = abs(float(rel @ geometry.front)) < geometry.depth / 2 + 0.02
@@ -219,6 +251,9 @@ def _spot_free(
 
 
 class _ShelfController(Dynamic3DController):
+    #: Whether a blocked straight base path may be replaced by a detour (:func:`_route`).
+    detours = False
+
     def _drive(
         self,
         goal: FloatArray,
@@ -247,7 +282,7 @@ class PickController(_ShelfController):
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: ShelfContext = self.context
         robot, cube = self.objects
-        geometry = _ShelfGeometry(ctx, state)
+        geometry = _ShelfGeometry(ctx, state, ctx.region(cube))
         dist = 0.50 + 0.10 * float(self.params[0])
         c = np.array([state.get(cube, "x"), state.get(cube, "y")])
         b0 = base_pose(state, robot)
@@ -260,7 +295,8 @@ class PickController(_ShelfController):
         direction = np.array([math.cos(heading), math.sin(heading)])
         goal = np.array([*(c - dist * direction), heading])
         obstacles = _floor_cubes(state, ctx.cubes, cube)
-        if not _path_clear(geometry, b0[:2], goal[:2], obstacles):
+        route = _route(geometry, b0[:2], goal[:2], obstacles, self.detours)
+        if route is None:
             raise SkillFailure("Pick: the straight base path is blocked")
         quat = gripper_quat(heading, PITCH)
         grasp = np.array([*(c - 0.005 * direction), GRASP_Z])
@@ -280,8 +316,10 @@ class PickController(_ShelfController):
         # The arm swings to above the cube while the base drives (it passes 15 cm above the
         # floor; the chassis path is checked).
         ready = nearest_ik(above, quat, goal, arm_joints(state, robot), READY)
+        legs = [drive_reach_segment(state, robot, np.array([*via, heading]), ready, 0.0, 0.05)
+                for via in route[:-1]]  # fmt: skip
         drive = drive_reach_segment(state, robot, goal, ready, 0.0, 0.01)
-        return [drive, descend, close, lift]
+        return [*legs, drive, descend, close, lift]
 
 
 class PlaceController(_ShelfController):
@@ -292,6 +330,18 @@ class PlaceController(_ShelfController):
         "(u, v): the pinch point goes to 0.22·(2u − 1) metres along the shelf from its centre "
         "and (0.08·v − 0.02) metres from its centre towards the opening, before the hand opens."
     )
+    #: Half-range (m) of the place spot along the shelf, and the number of spots on it.
+    lateral = LATERAL
+    slots = SLOTS
+    #: Range (m) of the pinch point's distance from the shelf's centre towards the opening.
+    inward = (-0.02, 0.06)
+    #: Height (m) of the pinch point above the goal shelf while the cube is carried in.
+    carry_above = CARRY_ABOVE_SHELF
+    #: Whether the hand lowers to the carry height (else it only rises to it).
+    lower_to_carry = False
+    #: Whether the spot and the carry height are the cube's (its centre, its bottom above the
+    #: shelf) rather than the pinch point's: where a cube sits in the pads varies by 1–2 cm.
+    track_cube = False
 
     def initiable(self, state: ObjectCentricState) -> bool:
         return state.get(self.robot, "pos_gripper") >= CLOSED
@@ -301,11 +351,12 @@ class PlaceController(_ShelfController):
         among those still free (uniform draws packed only about six cubes before every gap left
         was too narrow)."""
         ctx: ShelfContext = self.context
-        geometry = _ShelfGeometry(ctx, state)
-        params = rng.uniform(0.0, 1.0, 2)
         cube = self.objects[1]
-        slots = np.linspace(0.0, 1.0, SLOTS)
-        free = [u for u in slots if _spot_free(ctx, state, geometry, cube, LATERAL * (2 * u - 1))]
+        geometry = _ShelfGeometry(ctx, state, ctx.region(cube))
+        params = rng.uniform(0.0, 1.0, 2)
+        slots = np.linspace(0.0, 1.0, self.slots)
+        free = [u for u in slots
+                if _spot_free(ctx, state, geometry, cube, self.lateral * (2 * u - 1))]  # fmt: skip
         if free:
             params[0] = free[int(rng.integers(len(free)))]
         return params
@@ -313,32 +364,49 @@ class PlaceController(_ShelfController):
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: ShelfContext = self.context
         robot, cube = self.objects[:2]
-        geometry = _ShelfGeometry(ctx, state)
-        lateral = LATERAL * (2 * float(self.params[0]) - 1)
-        inward = 0.08 * float(self.params[1]) - 0.02
+        geometry = _ShelfGeometry(ctx, state, ctx.region(cube))
+        lateral = self.lateral * (2 * float(self.params[0]) - 1)
+        lo, hi = self.inward
+        inward = lo + (hi - lo) * float(self.params[1])
         if not _spot_free(ctx, state, geometry, cube, lateral):
             raise SkillFailure("Place: the spot is next to a cube already on the shelf")
         b0 = base_pose(state, robot)
         # The carry pose: the pinch point straight above where it is, at the carry height; the
         # last IK solution along that line, so on the branch of the current pose.
         here = pinch_position(b0, arm_joints(state, robot))
-        carry_z = max(float(geometry.origin[2]) + CARRY_ABOVE_SHELF, float(here[2]))
+        carry_z = float(geometry.origin[2]) + self.carry_above
+        c = np.array([state.get(cube, f) for f in ("x", "y", "z")])
+        if self.track_cube:
+            carry_z += float(here[2] - c[2]) + 0.5 * state.get(cube, "bb_z")
+        if not self.lower_to_carry:
+            carry_z = max(carry_z, float(here[2]))
         line = line_segments(state, robot, np.array([here[0], here[1], carry_z]), float(b0[2]),
                              PITCH, 1.0, spacing=0.1)  # fmt: skip
         arm = np.asarray(line[-1].arm)
         heading = math.atan2(-geometry.front[1], -geometry.front[0])  # face the opening
         # The arm is held fixed: the pinch point keeps its offset in the base frame.
         offset = pinch_position(np.array([0.0, 0.0, heading]), arm)[:2]
+        if self.track_cube:  # and so does the cube, relative to the pinch point
+            turn = heading - float(b0[2])
+            rot = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+            offset = offset + rot @ (c[:2] - here[:2])
         spot = geometry.origin[:2] + lateral * geometry.lateral + inward * geometry.front
         outside = spot + (geometry.depth / 2 + PRE_PLACE - inward) * geometry.front
         pre = np.array([*(outside - offset), heading])
         inside = np.array([*(spot - offset), heading])
         obstacles = _floor_cubes(state, ctx.cubes, cube)
-        if not _path_clear(geometry, b0[:2], pre[:2], obstacles):
+        route = _route(geometry, b0[:2], pre[:2], obstacles, self.detours)
+        if route is None:
             raise SkillFailure("Place: the straight base path to the cupboard is blocked")
+        legs = [
+            replace(drive_reach_segment(state, robot, np.array([*via, heading]), arm, 1.0, 0.05),
+                    base_speed=CARRY_SPEED)
+            for via in route[:-1]
+        ]  # fmt: skip
         # Opened only part way on the shelf, so that the pads stay clear of the neighbours.
         release = Segment(gripper=RELEASE, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
         return [
+            *legs,
             replace(drive_reach_segment(state, robot, pre, arm, 1.0, 0.01),
                     base_speed=CARRY_SPEED),
             Segment(

@@ -4,7 +4,8 @@ Covers the table variants (o4 and o20 into bins, o20 into bowls): a pile of 1 cm
 the centre of a 1.2 x 0.6 m table, with four containers around it; each cube's goal region
 (read from the task file, so the colour cycle is not hard-coded) is a box in its container's
 frame. The o12 cupboard variant (nine cubes and three 35 cm rods from the floor onto four
-cupboard levels) is not modelled: see Limits.
+cupboard levels) has its own model, :mod:`kinder_gym.models.dynamic3d.sort_cupboard3d`, which
+:func:`create_model` returns for it.
 
 Concepts:
 
@@ -52,14 +53,7 @@ Limits:
   cost over 60 s to sample once).
 * A cube lying on an edge (tilted in the pile) is grasped as if flat; cubes whose neighbours
   get caught between the pads make the pick's prediction fail and the planner resample.
-* o12 (cupboard) is not modelled; the module raises a ValueError naming it. Its twelve objects
-  come from the floor, one by one: at the about 120 steps per object of the Shelf3D and
-  ConstrainedCupboard3D floor-to-cupboard skills, that is about 1,440 of the 1,000 steps
-  allowed. The rods need no regrasp (the top level's goal boxes are 45 cm tall, so a rod lying
-  along the depth, slid in end first as in ConstrainedCupboard3D, counts), but the nine cubes go
-  onto levels only 10 cm high, too low for Shelf3D's 45° approach (with the pinch point 13 cm
-  inside, the gripper crosses the opening about 17 cm above the shelf; geometry, not tried): a
-  flatter approach would be needed.
+* o12 (cupboard): see :mod:`kinder_gym.models.dynamic3d.sort_cupboard3d`.
 
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
@@ -77,6 +71,7 @@ from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.dynamic3d import sort_cupboard3d
 from kinder_gym.models.dynamic3d.rearrange3d import (
     DOWN,
     LOADED_TOL,
@@ -328,11 +323,8 @@ class DropController(_SortController):
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The SortClutteredBlocks3D planning model (the table variants: bins o4/o20, bowls o20)."""
     objects: dict[str, Object] = env.objects  # type: ignore[attr-defined]
-    if TABLE not in objects:
-        raise ValueError(
-            "SortClutteredBlocks3D model: only the table variants (bins, bowls) are modelled; "
-            "the o12 cupboard variant is not (see the module docstring)"
-        )
+    if TABLE not in objects:  # the cupboard variant (o12)
+        return sort_cupboard3d.create_model(env)
     robot_obj = objects["robot"]
     goal_expr = env.task.goal  # type: ignore[attr-defined]
     regions: dict[str, str] = {}
