@@ -11,6 +11,11 @@ fixed order, each with up to 3 parameter samples from its own sampler:
   no screw is lost (a pass that loses one is undone, as the planner would reject it).
 * ``toss``: Topple, then Pick and Drop of every cube in turn (Tossing3D-oN); a step counts as
   for ``shelf``.
+* ``cupboard``: Pick then Place of every cube, then PickRod then PlaceRod of every rod
+  (SortClutteredBlocks3D-o12, the cupboard variant); a step counts as for ``shelf``; no step
+  limit (the actions are counted: the whole task needs more than its 1000).
+* ``pour``: Pick then Place of every cube in turn (ScoopPour3D-oN: cube by cube with the
+  gripper); a step counts as for ``shelf``, a cube already in the green bin is skipped.
 * ``scoop``: GraspScoop, then ScoopAndPour within what is left of the episode's step limit
   (DynScoopPour2D-oN), one parameter sample each, so its counts are single-sample rates.
 
@@ -19,6 +24,8 @@ Usage:
     python benchmarks/skill_success.py sweep --seeds 0-19 [--contacts pyramidal:1]
     python benchmarks/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 0-9
     python benchmarks/skill_success.py scoop --env kinder/DynScoopPour2D-o10-v0 --seeds 0-29
+    python benchmarks/skill_success.py cupboard --seeds 0-9
+    python benchmarks/skill_success.py pour --env kinder/ScoopPour3D-o10-v0 --seeds 0-11
 
 Prints one JSON object: successes and tries per skill, the actions of the successful runs, the
 screws in the drawer at the end (sweep) and the episodes whose env goal was reached.
@@ -47,7 +54,7 @@ def _seeds(text: str) -> list[int]:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("model", choices=("shelf", "sweep", "toss", "scoop"))
+    parser.add_argument("model", choices=("shelf", "sweep", "toss", "scoop", "cupboard", "pour"))
     parser.add_argument("--env", help="env id (default: Shelf3D-o1 or SweepIntoDrawer3D-o5)")
     parser.add_argument("--seeds", default="0-9")
     parser.add_argument("--contacts", help="cone:impratio, e.g. pyramidal:1 (default: the env's)")
@@ -57,6 +64,8 @@ def main(argv: list[str] | None = None) -> None:
         "sweep": "kinder/SweepIntoDrawer3D-o5-v0",
         "toss": "kinder/Tossing3D-o1-v0",
         "scoop": "kinder/DynScoopPour2D-o10-v0",
+        "cupboard": "kinder/SortClutteredBlocks3D-o12-sort_the_blocks_into_the_cupboard-v0",
+        "pour": "kinder/ScoopPour3D-o10-v0",
     }[args.model]
     kwargs: dict[str, Any] = {}
     if args.contacts:
@@ -118,6 +127,20 @@ def main(argv: list[str] | None = None) -> None:
                 for name, skill in ((f"Pick(robot, {cube})", "Pick"),
                                     (f"Place(robot, {cube}, cupboard_1)", "Place")):  # fmt: skip
                     state = run(name, skill, state, rng) if state is not None else None
+        elif args.model == "cupboard":
+            names = sorted(n for n in env.objects if "_cube" in n or "_cuboid" in n)  # type: ignore[attr-defined]
+            for obj in sorted(names, key=lambda n: ("_cuboid" in n, n)):  # cubes first
+                kind = "Rod" if "_cuboid" in obj else ""
+                pick, place = f"Pick{kind}", f"Place{kind}"
+                for name, skill in ((f"{pick}(robot, {obj})", pick),
+                                    (f"{place}(robot, {obj}, cupboard_0)", place)):  # fmt: skip
+                    state = run(name, skill, state, rng) if state is not None else None
+        elif args.model == "pour":
+            for cube in sorted(n for n in env.objects if n.startswith("cube_")):  # type: ignore[attr-defined]
+                if state is not None and f"(InTarget {cube})" not in atoms(state):
+                    for name in (f"Pick(robot, {cube})", f"Place(robot, {cube})"):
+                        skill = name.split("(")[0]
+                        state = run(name, skill, state, rng) if state is not None else None
         elif args.model == "scoop":
             limit = env.spec.max_episode_steps if env.spec is not None else 1000
             before = steps

@@ -131,6 +131,28 @@ def test_pick_and_place_reach_their_predictions(env) -> None:
     assert env.goal_atoms(state)["on(cube_4, target_bin_region)"]
 
 
+def test_pick_next_to_the_bin_wall(env) -> None:
+    """A cube 7 cm from the yellow bin's wall with the fingers closing across the wall: opened
+    wide, the finger links landed on the wall's top and the descent stalled (seed 9's cube_0);
+    opened to the pre-grasp width they reach the cube."""
+    model = create_model(env)
+    state = env.reset(seed=9)[0]
+    wall_y = state.get(env.objects["bin_yellow_0"], "y") + 0.15  # the wall nearer the green bin
+    cube = env.objects["cube_0"]
+    for feature, value in zip(
+        ("x", "y", "qw", "qz"), (0.555, wall_y - 0.07, 1.0, 0.0), strict=True
+    ):
+        state.set(cube, feature, value)  # faces square to the wall: the pads close across it
+    for i, other in enumerate(o for o in env.objects.values() if o.name.startswith("cube_")):
+        if other != cube:  # the others well away from it
+            state.set(other, "x", 0.40 + 0.02 * i)
+            state.set(other, "y", wall_y - 0.25)
+    op = next(o for o in model.ground_operators(state) if o.name == "Pick(robot, cube_0)")
+    gs = model.skill(op)
+    out = execute_skill(gs.controller, state, np.array([0.5]), env.transition, 200)
+    assert out.finished and model.abstract(out.states[-1]) == op.apply(model.abstract(state))
+
+
 def test_planner_solves_a_seeded_instance(env) -> None:
     from kinder_bench.baselines.bilevel_planning import plan_reaches_goal
 

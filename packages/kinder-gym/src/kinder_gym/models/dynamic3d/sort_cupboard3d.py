@@ -18,38 +18,58 @@ Concepts:
 * ``OnShelf(obj, cupboard)``: not held and in its own goal region (the env's ``on`` test, so
   the goal atoms imply the env's goal).
 * ``IsCube(obj)``, ``IsRod(obj)``: which skills move the object (static).
+* ``TopShelfEmpty(cupboard)``: no rod is in its compartment (see Order below).
 
 Operators: ``Pick(?robot, ?cube)`` and ``PickRod(?robot, ?rod)`` (pre HandEmpty, OnGround and
 IsCube / IsRod; add Holding; delete HandEmpty, OnGround), ``Place(?robot, ?cube, ?cupboard)``
-and ``PlaceRod(?robot, ?rod, ?cupboard)`` (pre Holding and IsCube / IsRod; add HandEmpty,
-OnShelf; delete Holding). Goal: every object OnShelf, and HandEmpty.
+(pre Holding, IsCube, TopShelfEmpty; add HandEmpty, OnShelf; delete Holding) and
+``PlaceRod(?robot, ?rod, ?cupboard)`` (pre Holding, IsRod; add HandEmpty, OnShelf; delete
+Holding, TopShelfEmpty). Goal: every object OnShelf, and HandEmpty.
 
 Skills reuse the floor-to-cupboard controllers of the two families that move the same objects:
 
-* Pick and Place (cubes) are Shelf3D's
-  (:mod:`kinder_gym.models.dynamic3d.shelf3d`): drive to a standoff facing the cube with the
-  arm above it pitched 45° down, descend, close, lift; drive in front of the cupboard while the
-  hand moves to the carry height, drive in, open part way, back out. Here the levels are 10 cm
-  high, so the hand carries the cube only 3 cm above the shelf (pinch point) and stops 3.5–4.5
-  cm inside the opening: a 45° finger reaching deeper would touch the shelf above. The cube's
-  centre then ends about 3 cm inside the goal box's front face. Three spots along the shelf
-  (15 cm apart).
+* Pick and Place (cubes) are Shelf3D's (:mod:`kinder_gym.models.dynamic3d.shelf3d`): drive to
+  a standoff facing the cube with the arm above it pitched 45° down, descend, close, lift; drive
+  in front of the cupboard while the hand moves to the carry height, drive in, open part way,
+  back out. Here the levels are 10 cm high, so the Place carries the held cube with its bottom
+  1.2 cm above the shelf and puts its centre 3.5–4.5 cm inside the opening (1.5–2.5 cm inside
+  the goal box): a 45° finger reaching deeper would touch the shelf above. Both the height and
+  the spot are the cube's, not the pinch point's (Shelf3D's): where a cube sits in the pads
+  varies by 1–2 cm, and a cube carried by the pinch point's height caught on the shelf's edge.
+  Three spots along each shelf, 15 cm apart. The cubes lie scattered over 2 m² on both sides
+  of the path, so a straight base path that passes within 5 cm of a floor cube detours through
+  a waypoint 0.2 or 0.4 m beside its middle (with straight paths only, the Place of the sixth
+  cube of seed 0 found none in 10 samples).
 * PickRod and PlaceRod are ConstrainedCupboard3D's
   (:mod:`kinder_gym.models.dynamic3d.constrained_cupboard3d`): approach along the rod from one
   end, grasp, level the rod by turning the hand, raise it to the shelf, slide it in along the
   compartment's depth, open and back out. A ConstrainedCupboard3D rod is gripped near its end
   (the open fingers do not fit into its 6 cm opening); a compartment here is wider than the open
-  fingers, so the 35 cm rod is gripped within 2 cm of its middle (balanced: held near an end
-  it would swing down about the pads) and the fingers enter the compartment with it. The rod's
-  centre ends 4–7 cm inside the opening, its outer part overhanging the shelf's edge.
+  fingers, so the 35 cm rod is gripped within 2 cm of its middle and the fingers enter the
+  compartment with it. The 30 cm rise to the top shelf tilts the rod in the pads, so its height
+  is set twice (its lowest point 4 cm above the shelf) before it slides in; its centre ends
+  4–7 cm inside the opening, the outer part overhanging the shelf's edge. The rod is carried
+  at ConstrainedCupboard3D's 3 cm per action: at the env's full speed it was flung out.
+* Order: an overhanging rod is where the hand passes on its way to the shelves below (a Place
+  onto shelf 2 after the rods were in failed every try on seed 0), so every cube goes in
+  before the first rod: Place needs ``TopShelfEmpty(cupboard)`` (no rod in a compartment),
+  which PlaceRod deletes.
 
 Parameter spaces: as in the two source models (see the controllers' ``params_doc``).
 
 Differences from upstream: upstream KinDER 0.2.5 has no bilevel-planning model for this family
 (baselines.md); this one is new.
 
-Limits: see ``benchmarks/results/bilevel_planning.md`` for what was measured; twelve objects
-each fetched from the floor take more actions than a pick and place on a table.
+Limits:
+
+* The whole task does not fit the variant's 1000-step limit (upstream's, kept): every object
+  is fetched from the floor, about 90 actions per cube and 170 per rod with these skills, so
+  about 1,350 in all (``benchmarks/skill_success.py cupboard``). BP therefore finds no plan
+  within the limit; with a 2000-step budget (``kinder bench run --max-steps 2000``) it is
+  measured in ``benchmarks/results/bilevel_planning.md``. Fitting 1000 would need about a
+  quarter fewer actions per object (carrying several cubes at once, or faster grasps).
+* A cube that falls off a shelf, or any cube not yet in once a rod is, leaves no plan (the
+  order above); cubes touching on the floor are not checked against each other's grasps.
 
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
