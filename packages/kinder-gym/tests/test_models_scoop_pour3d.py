@@ -14,6 +14,7 @@ from kinder_gym.models import create_model
 from kinder_gym.models.dynamic3d.scoop_pour3d import (
     GraspScoopController,
     abstract_atoms,
+    grasp_shift,
     handle_centre,
     scoop_context,
 )
@@ -151,6 +152,28 @@ def test_pick_next_to_the_bin_wall(env) -> None:
     gs = model.skill(op)
     out = execute_skill(gs.controller, state, np.array([0.5]), env.transition, 200)
     assert out.finished and model.abstract(out.states[-1]) == op.apply(model.abstract(state))
+
+
+def test_grasp_shift_keeps_a_touching_cube_out_of_the_pads(env) -> None:
+    state = env.reset(seed=2)[0]
+    ctx = scoop_context(env)
+    cube, other = env.objects["cube_4"], env.objects["cube_9"]
+    for i, o in enumerate(ctx.cubes):  # all apart, 10 cm from cube_4
+        state.set(o, "x", 0.40 + 0.03 * i)
+        state.set(o, "y", -0.30)
+    state.set(cube, "x", 0.50)
+    state.set(cube, "y", -0.20)
+    assert np.all(grasp_shift(ctx, state, cube, 0.0) == 0.0)
+    # Touching along the closing direction (y at heading 0): the pinch point moves away from it.
+    state.set(other, "x", 0.50)
+    state.set(other, "y", -0.20 + 0.0055)
+    shift = grasp_shift(ctx, state, cube, 0.0)
+    assert shift[1] < 0.0 and abs(shift[1]) <= 0.006
+    # Touching along the pads' width (x): the pinch point moves along x instead.
+    state.set(other, "x", 0.50 + 0.0055)
+    state.set(other, "y", -0.20)
+    shift = grasp_shift(ctx, state, cube, 0.0)
+    assert shift[0] < 0.0 and shift[1] == 0.0
 
 
 def test_planner_solves_a_seeded_instance(env) -> None:

@@ -282,6 +282,41 @@ def holding_cube(ctx: ScoopContext, state: ObjectCentricState, cube: Object) -> 
     return float(np.linalg.norm(pos - pinch)) < 0.035 and pos[2] > 0.5
 
 
+#: Half-width (m) of a finger pad across the closing direction.
+PAD_HALF_WIDTH = 0.011
+#: Offsets (m) of the pinch point from the cube's centre, (along the pads' width, along the
+#: closing direction), tried in order to keep a touching neighbour out of the grasp: the 5 mm
+#: cube stays under the 2.2 cm wide pads and between them (1.7 cm apart), at worst touching
+#: one; a touching neighbour (centres 5.5 mm apart) ends just outside.
+GRASP_SHIFTS = tuple((a, b) for a in (0.0, 0.0085, -0.0085) for b in (0.0, 0.006, -0.006))
+
+
+def grasp_shift(
+    ctx: ScoopContext, state: ObjectCentricState, cube: Object, yaw: float
+) -> FloatArray:
+    """The first of :data:`GRASP_SHIFTS` (as a world offset) for which no other cube reaches
+    into the gap between the pads closing across ``cube`` at gripper heading ``yaw``; no shift
+    when none is clear."""
+    along = np.array([math.cos(yaw), math.sin(yaw)])
+    across = np.array([-math.sin(yaw), math.cos(yaw)])  # the closing direction
+    centre = np.array([state.get(cube, "x"), state.get(cube, "y")])
+    others = [
+        (np.array([state.get(o, "x"), state.get(o, "y")]) - centre, 0.5 * state.get(o, "bb_x"))
+        for o in ctx.cubes
+        if o != cube
+    ]
+    inner = 0.5 * 0.085 * (1.0 - CUBE_PRE_GRASP)
+    for a, b in GRASP_SHIFTS:
+        shift = a * along + b * across
+        if all(
+            abs(float((d - shift) @ across)) - half >= inner
+            or abs(float((d - shift) @ along)) >= PAD_HALF_WIDTH + half
+            for d, half in others
+        ):
+            return shift
+    return np.zeros(2)
+
+
 class PickCubeController(_ShelfController):
     """Pick a 5 mm cube off the yellow bin's floor. Objects: ``(robot, cube)``."""
 
@@ -295,6 +330,7 @@ class PickCubeController(_ShelfController):
         robot, cube = self.objects
         c = np.asarray(state[cube][:3], dtype=np.float64)
         yaw = (_yaw_of(np.asarray(state[cube][3:7])) + math.pi / 4) % (math.pi / 2) - math.pi / 4
+        c[:2] += grasp_shift(self.context, state, cube, yaw)
         quat = gripper_quat(yaw, PITCH_DOWN)
         goal = np.array([CUBE_BASE_X, c[1] + 0.1 * (2 * float(self.params[0]) - 1), 0.0])
 
