@@ -163,6 +163,8 @@ def test_grasp_shift_keeps_a_touching_cube_out_of_the_pads(env) -> None:
         state.set(o, "y", -0.30)
     state.set(cube, "x", 0.50)
     state.set(cube, "y", -0.20)
+    for feature, value in zip(("qw", "qx", "qy", "qz"), (1.0, 0.0, 0.0, 0.0), strict=True):
+        state.set(cube, feature, value)  # square to the axes: the Pick's heading is 0
     assert np.all(grasp_shift(ctx, state, cube, 0.0) == 0.0)
     # Touching along the closing direction (y at heading 0): the pinch point moves away from it.
     state.set(other, "x", 0.50)
@@ -174,6 +176,12 @@ def test_grasp_shift_keeps_a_touching_cube_out_of_the_pads(env) -> None:
     state.set(other, "y", -0.20)
     shift = grasp_shift(ctx, state, cube, 0.0)
     assert shift[0] < 0.0 and shift[1] == 0.0
+    # Planning the shifted grasp leaves the state alone (it once moved the cube in place).
+    model = create_model(env)
+    op = next(o for o in model.ground_operators(state) if o.name == "Pick(robot, cube_4)")
+    before = state.copy()
+    execute_skill(model.skill(op).controller, state, np.array([0.5]), env.transition, 1)
+    assert np.array_equal(state.data, before.data)
 
 
 def test_planner_solves_a_seeded_instance(env) -> None:

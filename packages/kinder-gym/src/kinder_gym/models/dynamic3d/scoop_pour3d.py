@@ -345,7 +345,7 @@ class PickCubeController(_ShelfController):
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         robot, cube = self.objects
-        c = np.asarray(state[cube][:3], dtype=np.float64)
+        c = np.array(state[cube][:3], dtype=np.float64)  # a copy: it is shifted below
         yaw = (_yaw_of(np.asarray(state[cube][3:7])) + math.pi / 4) % (math.pi / 2) - math.pi / 4
         c[:2] += grasp_shift(self.context, state, cube, yaw)
         quat = gripper_quat(yaw, PITCH_DOWN)
