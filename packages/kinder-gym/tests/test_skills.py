@@ -38,6 +38,36 @@ def test_each_toy_skill_reaches_its_operators_prediction() -> None:
         assert 0.85 <= x <= 0.95
 
 
+def test_a_controller_editing_its_states_cannot_change_the_rollout() -> None:
+    env = ToyPlaceEnv()
+    x0, _ = env.reset(seed=3)
+    model = make_toy_model(env)
+    pick = PICK.ground([env.robot, env.obstruction])
+    controller = model.skill(pick).controller
+    reset, observe = controller.reset, controller.observe
+
+    def scribble(state) -> None:
+        state.data[:] += 1.0  # what a careless skill might do to its copy
+
+    def reset_and_scribble(state, params) -> None:
+        reset(state, params)
+        scribble(state)
+
+    def observe_and_scribble(state) -> None:
+        observe(state)
+        scribble(state)
+
+    controller.reset = reset_and_scribble  # type: ignore[method-assign]
+    controller.observe = observe_and_scribble  # type: ignore[method-assign]
+    before = x0.copy()
+    out = execute_skill(controller, x0, [], env.transition, 40)
+    assert np.array_equal(x0.data, before.data) and out.states[0] is x0
+    state = x0
+    for action, recorded in zip(out.actions, out.states[1:], strict=True):
+        state, _, _ = env.transition(state, action)
+        assert np.array_equal(state.data, recorded.data)
+
+
 def test_infeasible_parameters_raise_skill_failure() -> None:
     env = ToyPlaceEnv()
     x0, _ = env.reset(seed=0)

@@ -191,10 +191,14 @@ def execute_skill(
     when a transition reports that the env's goal is reached, or when ``deadline`` (a
     ``time.perf_counter()`` value) passes. Raises :class:`SkillFailure` if the
     controller is not initiable or fails.
+
+    The controller is handed copies of the states: one that edits what it is given (a skill
+    once shifted a grasp target in place and so moved a cube in the planner's state) cannot
+    change ``state`` or the rollout.
     """
     if not controller.initiable(state):
         raise SkillFailure(f"{type(controller).__name__}{controller.objects} is not initiable")
-    controller.reset(state, params)
+    controller.reset(state.copy(), params)
     states = [state]
     actions: list[FloatArray] = []
     terminated = False
@@ -205,7 +209,7 @@ def execute_skill(
             return SkillRollout(states, actions, False, False, timed_out=True)
         action = controller.step()
         state, _, terminated = transition(state, action)
-        controller.observe(state)
+        controller.observe(state.copy())
         states.append(state)
         actions.append(action)
         if terminated and stop_on_goal:
