@@ -42,18 +42,18 @@ actions or more, over that budget, so those variants cannot be solved cube by cu
 o100, by BP in time, see below).
 
 Version notes (session 9; planner-free, every cube in turn, ``benchmarks/skill_success.py pour
---seeds 0-11``): before, 8 of 12 seeds were solved (Pick 102 of 113 tries, Place 101 of 104);
-after the three changes below, 12 of 12 with every one of the 240 skill runs reaching its
-prediction at the first sample (the scratch copy of the same loop that gave these per-seed
-counts is not committed; ``skill_success.py`` gives the totals).
+--seeds 0-11``): before, 8 of 12 seeds were solved (Pick 102 of 113 tries reached its
+prediction, Place 101 of 104); with the three changes below, 12 of 12 (Pick 120 of 121, Place
+120 of 120).
 
 * The fingers open to 1.7 cm, not fully: wide open, the finger links reached 7 cm sideways
   and landed on the bin wall's top when a cube lay that near it (the descent stalled 5 cm
-  above the floor). Alone: 10 of 12 seeds (Pick 108 of 112, Place 107 of 110).
-* The pinch-point shift: the pads had closed on two touching cubes (lifting both).
+  above the floor). With this change alone: 10 of 12 seeds (Pick 108 of 112, Place 107 of
+  110).
+* The pinch-point shift: the pads had closed on two touching cubes and lifted both (seed 2).
 * The carry at 4 cm per action (was the env's full 10 cm): the cube hangs from the pads'
-  lowest 5 mm, and the first full-speed steps of the drive shook it out (3 cubes of seeds 4,
-  9 and 10 fell back into the yellow bin).
+  lowest 5 mm, and in the first full-speed steps of the drive it fell back into the yellow bin
+  (seeds 9 and 10).
 
 Scoop concepts and skill, kept for a scoop model (:func:`abstract_atoms`):
 
@@ -280,8 +280,7 @@ CUBE_GRASP_Z = 0.506
 #: top (the descent stalled 5 cm above the floor).
 CUBE_PRE_GRASP = 0.8
 #: Largest base step (m, rad per action) while a cube is carried: it hangs from the pads' lowest
-#: 5 mm, and at the env's full speed (0.1 m) the first steps shook 3 of 112 cubes out
-#: (``benchmarks/skill_success.py pour``).
+#: 5 mm, and at the env's full speed (0.1 m) the first steps of the drive shook it out.
 CUBE_CARRY_SPEED = (0.04, 0.04)
 #: Pinch-point height (m) while carrying a cube and releasing it over the green bin.
 CUBE_CARRY_Z = 0.6
