@@ -156,6 +156,15 @@ def _rod_length(state: ObjectCentricState, rod: Object) -> float:
     return float(state.get(rod, "bb_y"))
 
 
+def nearest_axis_point(state: ObjectCentricState, rod: Object, point: FloatArray) -> FloatArray:
+    """The point of the (level) rod's axis segment nearest ``point`` in the plane, at the
+    rod's centre height."""
+    centre, axis = _rod_axis(state, rod)
+    half = _rod_length(state, rod) / 2
+    t = float(np.clip(np.dot(point[:2] - centre[:2], axis), -half, half))
+    return np.array([*(centre[:2] + t * axis), centre[2]])
+
+
 def _clear_of_cupboards(
     ctx: CupboardContext, state: ObjectCentricState, a: FloatArray, b: FloatArray
 ) -> bool:
@@ -400,17 +409,14 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
             for cup, region in regions.items()
         }
         for i, r in enumerate(rods):
-            centre, axis = _rod_axis(state, r)
-            half = _rod_length(state, r) / 2
-            t = float(np.clip(np.dot(pinch[:2] - centre[:2], axis), -half, half))
-            near = np.array([*(centre[:2] + t * axis), centre[2]])
-            if closed and centre[2] > 0.012 and np.linalg.norm(near - pinch) < 0.03:
+            near = nearest_axis_point(state, r, pinch)
+            if closed and near[2] > 0.012 and np.linalg.norm(near - pinch) < 0.03:
                 atoms.add(Holding.ground([robot_obj, r]))
                 continue
             shelves = [cup for cup in regions if inside[cup][i]]
             for cup in shelves:
                 atoms.add(OnShelf.ground([r, cup]))
-            if not shelves and centre[2] < 0.05:
+            if not shelves and near[2] < 0.05:
                 atoms.add(OnGround.ground([r]))
         return frozenset(atoms)
 
@@ -435,4 +441,9 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     )
 
 
-__all__: Sequence[str] = ["PickController", "PlaceController", "create_model"]
+__all__: Sequence[str] = [
+    "PickController",
+    "PlaceController",
+    "create_model",
+    "nearest_axis_point",
+]

@@ -204,10 +204,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         for obj in items:
             pos = np.asarray(state[obj][:3], dtype=np.float64)
             if obj in rods:  # the nearest point of the rod's axis
-                centre, axis = cupboard3d._rod_axis(state, obj)
-                half = cupboard3d._rod_length(state, obj) / 2
-                t = float(np.clip(np.dot(pinch[:2] - centre[:2], axis), -half, half))
-                pos = np.array([*(centre[:2] + t * axis), centre[2]])
+                pos = cupboard3d.nearest_axis_point(state, obj, pinch)
             if closed and pos[2] > 0.015 and np.linalg.norm(pos - pinch) < HOLD_RADIUS:
                 atoms.add(Holding.ground([robot_obj, obj]))
             elif on[f"on({obj.name}, {regions[obj.name]})"]:
