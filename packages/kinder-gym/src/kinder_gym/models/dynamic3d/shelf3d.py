@@ -30,6 +30,13 @@ variant works. Imports kinder_garden3d (the ``[3d]`` extra).
 
 Version notes:
 
+* Session 9, behaviour unchanged: SortClutteredBlocks3D-o12
+  (:mod:`kinder_gym.models.dynamic3d.sort_cupboard3d`) reuses these controllers, so the goal
+  region is per cube (``ShelfContext.regions``), the Place's spot range, spot count and carry
+  height are class attributes, and two options its cupboard needs are off here: ``detours``
+  (round floor cubes blocking a straight base path) and ``track_cube`` (the cube's position,
+  not the pinch point's, sets the spot and the carry height). The spot check ignores cubes on
+  other shelves.
 * Faster skills (Shelf3D-o6 and o8 had no plan within their 1000-step limit at about 200 steps
   per cube): the arm moves while the base drives (to above the cube during the Pick's drive, to
   the carry height during the Place's), instead of retracting first and reaching or lifting
