@@ -16,6 +16,11 @@ fixed order, each with up to 3 parameter samples from its own sampler:
   limit (the actions are counted: the whole task needs more than its 1000).
 * ``pour``: Pick then Place of every cube in turn (ScoopPour3D-oN: cube by cube with the
   gripper); a step counts as for ``shelf``, a cube already in the green bin is skipped.
+* ``pickplace``: greedy passes over the objects not yet at their goal: Pick, then the one other
+  operator on that object (Place, Drop); an object whose Pick, or whose place after it, fails
+  all its samples waits for the next pass, and a place after which no Pick works is drawn
+  again, as the planner would backtrack (SweepSimple3D-oN, SortClutteredBlocks3D bins and
+  bowls); no step limit (the actions are counted, to size a variant's step budget).
 * ``scoop``: GraspScoop, then ScoopAndPour within what is left of the episode's step limit
   (DynScoopPour2D-oN), one parameter sample each, so its counts are single-sample rates.
 
@@ -26,19 +31,23 @@ Usage:
     python benchmarks/skill_success.py scoop --env kinder/DynScoopPour2D-o10-v0 --seeds 0-29
     python benchmarks/skill_success.py cupboard --seeds 0-9
     python benchmarks/skill_success.py pour --env kinder/ScoopPour3D-o10-v0 --seeds 0-11
+    python benchmarks/skill_success.py pickplace --env kinder/SweepSimple3D-o5-<instruction>-v0
 
 Prints one JSON object: successes and tries per skill, the actions of the successful runs, the
-screws in the drawer at the end (sweep) and the episodes whose env goal was reached.
+screws in the drawer at the end (sweep), the episodes whose env goal was reached and each
+episode's actions (the successful skill runs only, as a plan executes them).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from kinder_bench.results import write_json
 from kinder_core import ObjectCentricState, make_object_centric
 from kinder_gym.models import create_model
 from kinder_gym.skills import SkillFailure, execute_skill
@@ -54,10 +63,13 @@ def _seeds(text: str) -> list[int]:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("model", choices=("shelf", "sweep", "toss", "scoop", "cupboard", "pour"))
+    parser.add_argument(
+        "model", choices=("shelf", "sweep", "toss", "scoop", "cupboard", "pour", "pickplace")
+    )
     parser.add_argument("--env", help="env id (default: Shelf3D-o1 or SweepIntoDrawer3D-o5)")
     parser.add_argument("--seeds", default="0-9")
     parser.add_argument("--contacts", help="cone:impratio, e.g. pyramidal:1 (default: the env's)")
+    parser.add_argument("--out", type=Path, help="also write the JSON object to this file")
     args = parser.parse_args(argv)
     default = {
         "shelf": "kinder/Shelf3D-o1-v0",
@@ -66,6 +78,8 @@ def main(argv: list[str] | None = None) -> None:
         "scoop": "kinder/DynScoopPour2D-o10-v0",
         "cupboard": "kinder/SortClutteredBlocks3D-o12-sort_the_blocks_into_the_cupboard-v0",
         "pour": "kinder/ScoopPour3D-o10-v0",
+        "pickplace": "kinder/SweepSimple3D-o5-sweep_the_blocks_to_the_left_side_of_the_kitchen"
+        "_island-v0",
     }[args.model]
     kwargs: dict[str, Any] = {}
     if args.contacts:
@@ -73,10 +87,16 @@ def main(argv: list[str] | None = None) -> None:
         kwargs["config"] = {"cone": cone, "impratio": float(impratio)}
     env = make_object_centric(args.env or default, **kwargs)
     model = create_model(env)
-    stats: dict[str, Any] = {"env": args.env or default, "contacts": args.contacts or "default"}
+    stats: dict[str, Any] = {
+        "env": args.env or default,
+        "seeds": args.seeds,
+        "contacts": args.contacts or "default",
+    }
     steps = 0
     solved = 0
     in_drawer = 0
+    episode_actions: list[int] = []
+    episode_solved: list[bool] = []
 
     def count(skill: str, ok: bool) -> None:
         done, tried = stats.get(skill, (0, 0))
@@ -118,6 +138,7 @@ def main(argv: list[str] | None = None) -> None:
         return None
 
     for seed in _seeds(args.seeds):
+        steps_before = steps
         state: ObjectCentricState | None = env.reset(seed=seed)[0]
         rng = np.random.default_rng(seed)
         assert state is not None
@@ -141,6 +162,45 @@ def main(argv: list[str] | None = None) -> None:
                     for name in (f"Pick(robot, {cube})", f"Place(robot, {cube})"):
                         skill = name.split("(")[0]
                         state = run(name, skill, state, rng) if state is not None else None
+        elif args.model == "pickplace":
+            assert state is not None
+            goal = {str(a) for a in model.goal(state)}
+            objs = sorted(n.split(", ")[1].rstrip(")") for n in ops if n.startswith("Pick("))
+            pending = list(objs)
+            # (state before the last place, the place's name, its action count): a place
+            # after which no pick works is drawn again, as the planner would backtrack.
+            last: tuple[ObjectCentricState, str, int] | None = None
+            redraws = 0
+            while pending and state is not None:
+                progress = False
+                for obj in list(pending):
+                    before = steps
+                    picked = run(f"Pick(robot, {obj})", "Pick", state, rng)
+                    if picked is None:
+                        continue
+                    pick_n = steps - before
+                    place = next(n for n in ops if not n.startswith("Pick(") and f", {obj})" in n)
+                    before = steps
+                    placed = run(place, place.split("(")[0], picked, rng)
+                    if placed is None:  # every place failed: undo the pick, try it again later
+                        steps -= pick_n
+                        continue
+                    state, last = placed, (picked, place, steps - before)
+                    if {a for a in goal if obj in a.strip("()").split()} <= atoms(state):
+                        pending.remove(obj)
+                        progress = True
+                if not progress and last is not None and redraws < TRIES * len(objs):
+                    picked, place, n = last
+                    redraws += 1
+                    before = steps
+                    redo = run(place, place.split("(")[0], picked, rng)
+                    if redo is not None:  # the new place replaces the old one
+                        last = (picked, place, steps - before)
+                        steps -= n
+                        state = redo
+                    continue
+                if not progress:
+                    break
         elif args.model == "scoop":
             limit = env.spec.max_episode_steps if env.spec is not None else 1000
             before = steps
@@ -170,11 +230,16 @@ def main(argv: list[str] | None = None) -> None:
                 state = run(left[0], "Sweep", state, rng, tries=1) or state
             if state is not None:
                 in_drawer += sum(a.startswith("(InDrawer") for a in atoms(state))
-        solved += state is not None and bool(env.goal_reached(state))
+        episode_solved.append(state is not None and bool(env.goal_reached(state)))
+        solved += episode_solved[-1]
+        episode_actions.append(steps - steps_before)
     stats.update({"success_actions": steps, "solved": solved})
+    stats.update({"episode_actions": episode_actions, "episode_solved": episode_solved})
     if args.model == "sweep":
         stats["screws_in_drawer"] = in_drawer
     print(json.dumps(stats))
+    if args.out is not None:
+        write_json(args.out, stats)
 
 
 if __name__ == "__main__":

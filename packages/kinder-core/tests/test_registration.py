@@ -49,6 +49,23 @@ def test_register_family_validates_and_is_idempotent() -> None:
     env = kinder_core.make(ids[0])
     assert env.reset(seed=0)[0].shape == (8,)
     gymnasium.registry.pop(ids[0])
+    kinder_core.registration._REGISTERED["Dynamo3D"].variants.pop("zz9")
+
+
+def test_variant_steps_give_one_variant_its_own_limit() -> None:
+    variants = {"zz7": {"num_pebbles": 1}, "zz8": {"num_pebbles": 2}}
+    with pytest.raises(ValueError, match="not a variant of Dynamo3D"):
+        register_family("Dynamo3D", "toy_env:ToyReach", variants, 7, {"zz6": 9})
+    with pytest.raises(ValueError, match="must be positive"):
+        register_family("Dynamo3D", "toy_env:ToyReach", variants, 7, {"zz8": 0})
+    ids = register_family("Dynamo3D", "toy_env:ToyReach", variants, 7, {"zz8": 30})
+    assert [gymnasium.spec(i).max_episode_steps for i in ids] == [7, 30]
+    info = kinder_core.registration._REGISTERED["Dynamo3D"]
+    assert info.step_limit("zz8") == 30 and info.step_limit("zz7") == info.max_episode_steps
+    for variant, env_id in zip(variants, ids, strict=True):
+        gymnasium.registry.pop(env_id)
+        info.variants.pop(variant)
+        info.variant_steps.pop(variant, None)
 
 
 def test_module_prefixed_make_and_register_envs_work_for_garden2d() -> None:

@@ -184,6 +184,22 @@ def test_variant_patches_apply_by_count():
     assert o4.regions["bin_red_goal_region"].boxes[0][3] == 0.02
 
 
+def test_a_variant_can_have_its_own_step_limit(tmp_path):
+    data = broken(
+        max_episode_steps=300,
+        variants={"o1": {"count": 1}, "o4": {"count": 4, "max_episode_steps": 900}},
+    )
+    path = write(tmp_path, data)
+    assert load_task(path, 1).max_episode_steps == 300
+    assert load_task(path, 4).max_episode_steps == 900
+    data["variants"]["o4"]["max_episode_steps"] = 0
+    with pytest.raises(TaskFileError, match=r"variants\.o4\.max_episode_steps: must be positive"):
+        load_task(write(tmp_path, data), 4)
+    # Registration reads the same number without loading the file.
+    limits = {i.label: i.max_episode_steps for i in variant_table() if i.family == "Shelf3D"}
+    assert set(limits.values()) == {1000}
+
+
 def test_scene_is_patched_by_the_task():
     task = load_task("SweepIntoDrawer3D/SweepIntoDrawer3D.json")
     island = task.fixtures["kitchen_island"]

@@ -84,10 +84,15 @@ class FamilyInfo:
     max_episode_steps: int
     version: int = 0
     variants: dict[str, dict[str, Any]] = field(default_factory=dict)
+    variant_steps: dict[str, int] = field(default_factory=dict)
 
     def env_id(self, variant: str) -> str:
         """The public id of one variant."""
         return make_id(self.name, variant, self.version)
+
+    def step_limit(self, variant: str) -> int:
+        """One variant's step budget: its own where it has one, else the family's."""
+        return self.variant_steps.get(variant, self.max_episode_steps)
 
 
 _REGISTERED: dict[str, FamilyInfo] = {}
@@ -104,6 +109,7 @@ def register_family(
     entry_point: str,
     variants: Mapping[str, Mapping[str, Any]],
     max_episode_steps: int,
+    variant_steps: Mapping[str, int] | None = None,
     version: int = 0,
 ) -> list[str]:
     """Register every variant of a family with gymnasium; returns the ids.
@@ -113,6 +119,9 @@ def register_family(
         entry_point: ``"module:Class"`` of the :class:`ObjectCentricEnv` subclass.
         variants: Variant label (``"o3"``; ``""`` for none) → constructor kwargs.
         max_episode_steps: The family's documented step budget (gymnasium's TimeLimit).
+        variant_steps: Variant label → its own step budget, for variants whose objects need
+            more steps than the family's (upstream registers no limits at all, so every
+            budget is this project's choice and is documented with its reason).
         version: The ``-vN`` suffix; bump it on any change of dynamics, reward or observation.
 
     Ids already registered are left alone, so importing a package twice is harmless.
@@ -123,6 +132,15 @@ def register_family(
         raise ValueError(f"entry_point must be 'module:Class', got {entry_point!r}")
     if max_episode_steps <= 0:
         raise ValueError(f"max_episode_steps must be positive, got {max_episode_steps}")
+    variant_steps = dict(variant_steps or {})
+    for variant, steps in variant_steps.items():
+        if variant not in variants:
+            raise ValueError(
+                f"variant_steps names {variant!r}, which is not a variant of {family}; "
+                f"variants: {sorted(variants)}"
+            )
+        if steps <= 0:
+            raise ValueError(f"variant_steps[{variant!r}] must be positive, got {steps}")
     info = _REGISTERED.setdefault(
         family,
         FamilyInfo(
@@ -133,12 +151,14 @@ def register_family(
     for variant, kwargs in variants.items():
         env_id = make_id(family, variant, version)
         info.variants[variant] = dict(kwargs)
+        if variant in variant_steps:
+            info.variant_steps[variant] = variant_steps[variant]
         if env_id not in gymnasium.registry:
             gymnasium.register(
                 id=env_id,
                 entry_point="kinder_core.registration:make_box_env",
                 kwargs={"env_entry_point": entry_point, **kwargs},
-                max_episode_steps=max_episode_steps,
+                max_episode_steps=variant_steps.get(variant, max_episode_steps),
             )
         ids.append(env_id)
     return ids

@@ -2,7 +2,8 @@
 
 Each file under ``tasks/<Family>/`` registers ``kinder/<Family>-<variant>-v0`` for every entry of
 its ``variants`` (or one id named after the file stem when it has none). The kwargs are the task
-file and, for counted tasks, ``num_objects``.
+file and, for counted tasks, ``num_objects``. Each id gets its own step limit: the variant's
+``max_episode_steps``, else the file's, else 1000.
 """
 
 from __future__ import annotations
@@ -18,14 +19,16 @@ ENTRY_POINT = "kinder_garden3d.dynamic3d.env:Dynamic3DEnv"
 def register_dynamic3d() -> list[str]:
     """Register every bundled Dynamic3D task variant; returns the ids."""
     families: dict[str, dict[str, dict[str, Any]]] = {}
-    steps: dict[str, int] = {}
+    steps: dict[str, dict[str, int]] = {}
     for info in variant_table():
         kwargs: dict[str, Any] = {"task": info.file}
         if info.count is not None:
             kwargs["num_objects"] = info.count
         families.setdefault(info.family, {})[info.label] = kwargs
-        steps[info.family] = max(steps.get(info.family, 0), info.max_episode_steps)
+        steps.setdefault(info.family, {})[info.label] = info.max_episode_steps
     ids: list[str] = []
     for family, variants in families.items():
-        ids += register_family(family, ENTRY_POINT, variants, steps[family])
+        ids += register_family(
+            family, ENTRY_POINT, variants, min(steps[family].values()), steps[family]
+        )
     return ids

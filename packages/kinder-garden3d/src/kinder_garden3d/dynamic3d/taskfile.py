@@ -213,7 +213,13 @@ def variant_table() -> list[VariantInfo]:
             count = spec.get("count") if isinstance(spec, dict) else None
             if not isinstance(count, int):
                 raise TaskFileError(f"{display}: variants.{label}.count: expected an integer")
-            out.append(VariantInfo(family, label, display, count, steps))
+            label_steps = spec.get("max_episode_steps", steps)
+            if not isinstance(label_steps, int) or label_steps <= 0:
+                raise TaskFileError(
+                    f"{display}: variants.{label}.max_episode_steps: expected a positive "
+                    f"integer, got {label_steps!r}"
+                )
+            out.append(VariantInfo(family, label, display, count, label_steps))
     return out
 
 
@@ -336,10 +342,18 @@ def load_task(task: str, num_objects: int | None = None) -> TaskSpec:
     if variants is not None:
         variants = v.obj(variants, "variants", None)
         for label, spec in variants.items():
-            spec = v.obj(spec, f"variants.{label}", {"count", "instruction", "patch"})
+            spec = v.obj(
+                spec, f"variants.{label}", {"count", "instruction", "max_episode_steps", "patch"}
+            )
             if v.integer(spec.get("count"), f"variants.{label}.count") == count:
                 if "patch" in spec:
                     raw = merge_patch(raw, v.obj(spec["patch"], f"variants.{label}.patch", None))
+                if "max_episode_steps" in spec:
+                    key = f"variants.{label}.max_episode_steps"
+                    steps = v.integer(spec["max_episode_steps"], key)
+                    if steps <= 0:
+                        raise v.error(key, f"must be positive, got {steps}")
+                    raw = {**raw, "max_episode_steps": steps}
                 instruction = spec.get("instruction", instruction)
     raw = {k: val for k, val in raw.items() if k != "variants"}
 

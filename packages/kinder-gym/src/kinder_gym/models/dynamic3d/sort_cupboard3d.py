@@ -62,12 +62,13 @@ Differences from upstream: upstream KinDER 0.2.5 has no bilevel-planning model f
 
 Limits:
 
-* The whole task does not fit the variant's 1000-step limit (upstream's, kept): every object
+* The whole task does not fit in 1000 steps, the limit every Dynamic3D id had: every object
   is fetched from the floor, about 90 actions per cube and 170 per rod with these skills, so
-  about 1,350 in all (``benchmarks/skill_success.py cupboard``). BP therefore finds no plan
-  within the limit; with a 2000-step budget (``kinder bench run --max-steps 2000``) it is
-  measured in ``benchmarks/results/bilevel_planning.md``. Fitting 1000 would need about a
-  quarter fewer actions per object (carrying several cubes at once, or faster grasps).
+  1,267–1,456 in all on seeds 0–9 (``benchmarks/skill_success.py cupboard``). The variant's
+  limit is therefore 2500 (``benchmarks/results/step_limits.md``: 1.5 × the most actions the
+  skills took, rounded up to 500; upstream registers no limit); BP's results at 1000, 2000
+  and 2500 steps are in ``benchmarks/results/bilevel_planning.md``. Fitting 1000 would need
+  about a quarter fewer actions per object (carrying several cubes at once, or faster grasps).
 * A cube that falls off a shelf, or any cube not yet in once a rod is, leaves no plan (the
   order above); cubes touching on the floor are not checked against each other's grasps.
 

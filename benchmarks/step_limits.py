@@ -1,0 +1,92 @@
+"""The Dynamic3D variants whose step limit is raised above 1000, and the measurements behind it.
+
+Upstream kindergarden 0.2.5 registers no step limit at all (spec environments.md §9), so every
+limit is this project's choice. Dynamic3D ids get 1000 steps, except variants whose objects need
+more with the KinDERGym skills (the reference solution: one object at a time). For those the
+limit is :func:`limit_for` of the most actions a planner-free run of the skills took on the
+measured seeds: 1.5 times it, rounded up to a multiple of 500, so that a plan with unlucky
+samples (the planner draws its own) still fits.
+
+The measurements are ``benchmarks/skill_success.py`` outputs, one JSON file per variant under
+``benchmarks/results/step_limits/``, named after the id (made with ``--out``, as below).
+``python benchmarks/step_limits.py`` prints the markdown table of ``step_limits.md`` and exits
+non-zero when a registered limit disagrees with the rule (a test checks the same).
+
+    python benchmarks/skill_success.py pickplace --env kinder/ScoopPour3D-o20-v0 --seeds 0-2 \\
+        --out benchmarks/results/step_limits/ScoopPour3D-o20.json
+    python benchmarks/step_limits.py
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+RESULTS = Path(__file__).resolve().parent / "results" / "step_limits"
+#: Every Dynamic3D id's limit unless measured otherwise.
+DEFAULT_LIMIT = 1000
+#: Margin over the most actions the skills took, and the rounding step.
+MARGIN, ROUND_TO = 1.5, 500
+
+
+def limit_for(actions: int) -> int:
+    """The step limit for a variant whose skills took at most ``actions`` actions."""
+    return max(DEFAULT_LIMIT, math.ceil(MARGIN * actions / ROUND_TO) * ROUND_TO)
+
+
+def measurements() -> list[dict[str, Any]]:
+    """Every measurement file, sorted by env id."""
+    rows = [json.loads(p.read_text()) for p in sorted(RESULTS.glob("*.json"))]
+    return sorted(rows, key=lambda r: str(r["env"]))
+
+
+def solved_actions(row: dict[str, Any]) -> list[int]:
+    """The actions of each solved episode (an unsolved one counts only what it did)."""
+    pairs = zip(row["episode_actions"], row["episode_solved"], strict=True)
+    return [int(n) for n, ok in pairs if ok]
+
+
+def table() -> tuple[str, list[str]]:
+    """The markdown table and the ids whose registered limit breaks the rule."""
+    import gymnasium
+
+    import kinder_garden3d  # noqa: F401  (registers the ids)
+
+    lines = [
+        "| env | seeds | solved | actions per solved episode | rule: limit | registered |",
+        "|---|---|---|---|---|---|",
+    ]
+    wrong = []
+    for row in measurements():
+        acts = solved_actions(row)
+        rule = limit_for(max(acts)) if acts else None
+        registered = gymnasium.spec(row["env"]).max_episode_steps
+        if rule is None or registered != rule:
+            wrong.append(row["env"])
+        span = (
+            "--"
+            if not acts
+            else f"{min(acts):,}–{max(acts):,}"
+            if len(acts) > 1
+            else f"{acts[0]:,}"
+        )
+        lines.append(
+            f"| {row['env']} | {row['seeds']} | {sum(row['episode_solved'])} of "
+            f"{len(row['episode_solved'])} | {span} | {rule or '--'} | {registered} |"
+        )
+    return "\n".join(lines), wrong
+
+
+def main() -> None:
+    text, wrong = table()
+    print(text)
+    if wrong:
+        print(f"registered limits that break the rule: {wrong}", file=sys.stderr)
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()
