@@ -34,10 +34,13 @@ This model carries the blocks one by one instead, because the wiper sweeps of
 :mod:`kinder_gym.models.dynamic3d.sweep_into_drawer3d` push objects ~20 cm over a table edge,
 whereas here every block must travel ~1.3 m across the floor around the island's end, a
 closed-loop pushing skill that was not built in the time this model had. The wiper is only an
-obstacle. Consequence: a pick and a place take about 150–275 actions (seed 0–4 episodes of o1),
-so one block fits the 1000-step episode limit but five barely do, and 10 or 50 cannot: BP
-solves o1 and not the larger variants (``benchmarks/results/bilevel_planning.md``). A wiper
-sweep that moves many blocks per pass is what the larger variants need.
+obstacle. Consequence: a pick and a place take about 150–300 actions (planner-free: o5
+1,338–1,467 actions, o10 2,691–2,963), more than the 1000 steps every Dynamic3D id had, so
+o5 and o10 have their own limits, 2500 and 4500 (``benchmarks/results/step_limits.md``: 1.5 ×
+the most actions the skills took, rounded up to 500; upstream registers no limit). At them BP
+solves o5 in 0.94 and o10 in 0.60 of the measured episodes
+(``benchmarks/results/bilevel_planning.md``). A wiper sweep that moves many blocks per pass is
+what o50 needs.
 
 Findings that shaped the skills: carried at the env's full base speed (0.1 m, 0.1 rad per
 action) the 1 cm block was flung out of the fingers on most carries, hence ``CARRY_SPEED``;
