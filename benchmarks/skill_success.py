@@ -93,7 +93,6 @@ def main(argv: list[str] | None = None) -> None:
         "contacts": args.contacts or "default",
     }
     steps = 0
-    solved = 0
     in_drawer = 0
     episode_actions: list[int] = []
     episode_solved: list[bool] = []
@@ -166,6 +165,10 @@ def main(argv: list[str] | None = None) -> None:
             assert state is not None
             goal = {str(a) for a in model.goal(state)}
             objs = sorted(n.split(", ")[1].rstrip(")") for n in ops if n.startswith("Pick("))
+            place_of = {
+                o: next(n for n in ops if not n.startswith("Pick(") and f", {o})" in n)
+                for o in objs
+            }
             pending = list(objs)
             # (state before the last place, the place's name, its action count): a place
             # after which no pick works is drawn again, as the planner would backtrack.
@@ -179,7 +182,7 @@ def main(argv: list[str] | None = None) -> None:
                     if picked is None:
                         continue
                     pick_n = steps - before
-                    place = next(n for n in ops if not n.startswith("Pick(") and f", {obj})" in n)
+                    place = place_of[obj]
                     before = steps
                     placed = run(place, place.split("(")[0], picked, rng)
                     if placed is None:  # every place failed: undo the pick, try it again later
@@ -231,9 +234,8 @@ def main(argv: list[str] | None = None) -> None:
             if state is not None:
                 in_drawer += sum(a.startswith("(InDrawer") for a in atoms(state))
         episode_solved.append(state is not None and bool(env.goal_reached(state)))
-        solved += episode_solved[-1]
         episode_actions.append(steps - steps_before)
-    stats.update({"success_actions": steps, "solved": solved})
+    stats.update({"success_actions": steps, "solved": sum(episode_solved)})
     stats.update({"episode_actions": episode_actions, "episode_solved": episode_solved})
     if args.model == "sweep":
         stats["screws_in_drawer"] = in_drawer
