@@ -140,13 +140,12 @@ def main(argv: list[str] | None = None) -> None:
                     print(f"{name}: failed ({failure}) in {time.perf_counter() - started:.1f} s",
                           file=sys.stderr, flush=True)  # fmt: skip
                 continue
-            after = atoms(out.states[-1])
+            reached = model.abstract(out.states[-1])
+            after = {str(a) for a in reached}
             if skill == "Sweep":  # monotone: other screws may drop in too, none may be lost
                 ok = f"(InDrawer {target})" in after and not any("(Lost" in a for a in after)
             else:  # as the planner accepts it: exact, or extra monotone atoms
-                ok = out.finished and abstract_match(
-                    model, model.abstract(out.states[-1]), want_atoms
-                )
+                ok = out.finished and abstract_match(model, reached, want_atoms)
             count(skill, ok)
             if args.verbose:
                 print(f"{name}: {'ok' if ok else 'missed ' + str(sorted(after ^ want))[:200]}, "

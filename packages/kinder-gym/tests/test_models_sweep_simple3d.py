@@ -88,7 +88,8 @@ def test_pick_slides_the_base_where_it_cannot_turn(env) -> None:
     robot = env.objects["robot"]
     for feature, value in zip(BASE_FEATURES, (0.22, 1.26, 0.0), strict=True):
         state.set(robot, feature, value)
-    assert not _turn_ok(np.array([0.22, 1.26]), 0.0, -np.pi / 2, HOME)
+    folded = pinch_position(np.zeros(3), HOME)[:2]
+    assert not _turn_ok(np.array([0.22, 1.26]), 0.0, -np.pi / 2, folded)
     op = next(o for o in model.ground_operators(state) if o.name.startswith("Pick"))
     controller = model.skill(op).controller
     rng = np.random.default_rng(0)

@@ -221,14 +221,19 @@ def _path_ok(
     return _segment_rect_distance(a, b, centre, axes, WIPER_HALF) >= min(PASS_CLEARANCE, start)
 
 
-def _turn_ok(p: FloatArray, yaw: float, heading: float, arm: FloatArray) -> bool:
-    """Whether the hand (arm joints ``arm``) stays clear of the fixtures while the base at
-    ``p`` turns in place from ``yaw`` to ``heading``, checked at 9 points of the arc."""
-    offset = pinch_position(np.zeros(3), arm)[:2]
+def _rotated(offset: FloatArray, yaw: FloatArray | float) -> FloatArray:
+    """``offset`` (the hand from the base centre at heading 0) turned by ``yaw`` (one angle, or
+    an array of them: one row each)."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.stack([c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]], axis=-1)
+
+
+def _turn_ok(p: FloatArray, yaw: float, heading: float, offset: FloatArray) -> bool:
+    """Whether the hand (``offset`` from the base centre at heading 0) stays clear of the
+    fixtures while the base at ``p`` turns in place from ``yaw`` to ``heading``, checked at 9
+    points of the arc."""
     angles = yaw + np.linspace(0.0, 1.0, 9) * wrap_angle(heading - yaw)
-    c, s = np.cos(angles), np.sin(angles)
-    arc = np.stack([c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]], axis=1)
-    return _clear(p + arc, HAND_CLEARANCE)
+    return _clear(p + _rotated(offset, angles), HAND_CLEARANCE)
 
 
 def _turn_spots(p: FloatArray) -> list[FloatArray]:
@@ -299,16 +304,17 @@ class _Controller(_ShelfController):
         ctx: SweepSimpleContext = self.context
         b0 = base_pose(state, self.robot)
         heading = float(goal[2])
-        hand = pinch_position(np.array([0.0, 0.0, heading]), arm)[:2]
+        offset = pinch_position(np.zeros(3), arm)[:2]  # the hand, base at the origin facing +x
+        hand = _rotated(offset, heading)
         segs: list[SegmentSource] = []
         start, points = b0[:2], None
-        if _turn_ok(start, float(b0[2]), heading, arm):
+        if _turn_ok(start, float(b0[2]), heading, offset):
             with contextlib.suppress(SkillFailure):
                 points = _route(ctx, state, start, goal[:2], via_x, hand)
         if points is None:
-            now = pinch_position(np.array([0.0, 0.0, float(b0[2])]), arm)[:2]
+            now = _rotated(offset, float(b0[2]))
             for spot in _turn_spots(start):
-                if not (_turn_ok(spot, float(b0[2]), heading, arm)
+                if not (_turn_ok(spot, float(b0[2]), heading, offset)
                         and _path_ok(ctx, state, start, spot, now)):  # fmt: skip
                     continue
                 try:
