@@ -147,12 +147,11 @@ def register_family(
             family, FAMILY_SOURCES[family].category, entry_point, max_episode_steps, version
         ),
     )
+    info.variant_steps.update(variant_steps)
     ids = []
     for variant, kwargs in variants.items():
         env_id = make_id(family, variant, version)
         info.variants[variant] = dict(kwargs)
-        if variant in variant_steps:
-            info.variant_steps[variant] = variant_steps[variant]
         if env_id not in gymnasium.registry:
             gymnasium.register(
                 id=env_id,

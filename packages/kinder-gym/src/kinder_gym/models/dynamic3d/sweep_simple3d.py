@@ -191,10 +191,9 @@ def _clear(points: FloatArray, clearance: float) -> bool:
     return bool(gaps.min() >= min(clearance, float(gaps[0]) - 1e-9))
 
 
-def _base_ok(p: FloatArray, clearance: float = PASS_CLEARANCE) -> bool:
-    """Whether a disc of radius ``clearance`` centred at ``p`` (the chassis, or the hand) is
-    clear of the kitchen's fixtures."""
-    return bool(_fixture_gaps(p)[0] >= clearance)
+def _base_ok(p: FloatArray) -> bool:
+    """Whether the chassis centred at ``p`` keeps ``PASS_CLEARANCE`` from the fixtures."""
+    return bool(_fixture_gaps(p)[0] >= PASS_CLEARANCE)
 
 
 def _path_ok(
