@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import itertools
 import json
@@ -14,6 +15,7 @@ from typer.testing import CliRunner
 
 from kinder_bench.agents import AGENTS, agent_class, unavailable_reason
 from kinder_bench.cli import app
+from kinder_bench.metrics import Stat
 from kinder_bench.paper import (
     METRICS,
     NOT_IN_RUNS,
@@ -170,6 +172,35 @@ def test_results_from_committed_csv_round_trip(fixture_run: Path, tmp_path: Path
     bad.write_text("env_id,method\nx,y\n")
     with pytest.raises(ValueError, match="not a summary row"):
         results_from_csv(bad)
+
+
+def test_a_relabelled_variant_never_fills_the_paper_column(
+    fixture_run: Path, tmp_path: Path
+) -> None:
+    _, paths = write_report([fixture_run], tmp_path)
+    results = results_from_csv(paths["csv"])
+    bp = next(r for r in results if r.agent == "bilevel_planning" and r.env_id == MOTION)
+    # A variant of the same agent with more episodes and another SR (e.g. ppo-dense).
+    variant = dataclasses.replace(
+        bp,
+        method="bilevel_planning-variant",
+        run_id="f" * 12,
+        episodes=bp.episodes * 10,
+        success=Stat.of([0.25, 0.25]),
+    )
+    md = paper_markdown(compare([*results, variant]))
+    header = next(line for line in md.splitlines() if line.startswith("| Env |"))
+    names = [c.strip() for c in header.split("|")[1:-1]]
+    sr = next(line for line in md.splitlines() if line.startswith("| Motion2D-p0 | SR"))
+    cells = [c.strip() for c in sr.split("|")[1:-1]]
+    assert cells[names.index("BP (bilevel_planning)")] == "**1.00 ± 0.000** (1.00 ± 0.000)"
+    assert cells[names.index("bilevel_planning-variant")] == "0.25 ± 0.000"
+    # A run whose label only gained its run id (two runs of one label, other arguments) is the
+    # agent's own: the one with more episodes fills the paper column.
+    other = dataclasses.replace(variant, method="bilevel_planning[ffffff]")
+    md = paper_markdown(compare([*results, other]))
+    sr = next(line for line in md.splitlines() if line.startswith("| Motion2D-p0 | SR"))
+    assert sr.split("|")[3].strip() == "0.25 ± 0.000 (1.00 ± 0.000)"
 
 
 def test_html_report_in_headless_chromium(fixture_run: Path, tmp_path: Path) -> None:

@@ -18,7 +18,10 @@ reason (a checkpoint, an endpoint, a GPU, a planning model), that no such agent 
 that it can run here but is not in the given runs.
 
 When several of our runs of one agent cover a paper env (e.g. two argument settings), the one
-with the most episodes fills the paper column and the others get columns of their own.
+with the most episodes fills the paper column and the others get columns of their own. A run
+labelled other than its agent's name (e.g. ``ppo-dense``, PPO trained on BaseMotion3D's dense
+reward by ``benchmarks/rl_bench.py``) is a variant of the paper's setting and never fills the
+paper column: it gets its own.
 """
 
 from __future__ import annotations
@@ -152,6 +155,19 @@ class Result:
     errors: int
     command: str = ""
     """The command that produced it, when known."""
+    settings: str = ""
+    """What tells this run from others of its label (``search=gbfs``), shown after its name."""
+
+    @property
+    def name(self) -> str:
+        """The method's label with its settings: ``bilevel_planning (search=gbfs)``."""
+        return f"{self.method} ({self.settings})" if self.settings else self.method
+
+    @property
+    def is_variant(self) -> bool:
+        """Labelled other than its agent's name (``ppo-dense``), not counting the run id that
+        :func:`~kinder_bench.metrics.aggregate` appends to tell runs of one label apart."""
+        return self.method.removesuffix(f"[{self.run_id[:6]}]") != self.agent
 
     def stat(self, metric: str) -> Stat:
         return {"SR": self.success, "Rwd": self.reward, "Inf-Time": self.inference_time}[metric]
@@ -296,10 +312,10 @@ def compare(
     """Pair our results with the paper's cells (see the module docstring for the rules)."""
     paper = paper or load_paper()
     reason = reason or (lambda agent, env: unavailable_reason(agent, env))
-    # Per (env, agent), the run with the most episodes fills the paper column.
+    # Per (env, agent), the run with the most episodes fills the paper column; variants never do.
     primary: dict[tuple[str, str], Result] = {}
     for r in results:
-        if paper.method_of(r.agent) is None:
+        if paper.method_of(r.agent) is None or r.is_variant:
             continue
         best = primary.get((r.env_id, r.agent))
         if best is None or r.episodes > best.episodes:
@@ -310,10 +326,10 @@ def compare(
     # several runs on one env.
     labels: dict[tuple[str, str], set[str]] = {}
     for r in extra:
-        labels.setdefault((r.env_id, r.method), set()).add(r.run_id)
+        labels.setdefault((r.env_id, r.name), set()).add(r.run_id)
     clash = {m for (_, m), ids in labels.items() if len(ids) > 1}
     extra_key = {
-        r.run_id: f"{r.method}[{r.run_id[:6]}]" if r.method in clash else r.method for r in extra
+        r.run_id: f"{r.name}[{r.run_id[:6]}]" if r.name in clash else r.name for r in extra
     }
     seen: set[str] = set()
     for r in extra:

@@ -19,7 +19,14 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from kinder_bench.agents import AGENTS, agent_name
-from kinder_bench.paper import compare, fmt_stat, metric_digits, paper_markdown, results_from_csv
+from kinder_bench.paper import (
+    Result,
+    compare,
+    fmt_stat,
+    metric_digits,
+    paper_markdown,
+    results_from_csv,
+)
 from kinder_bench.report import CSV_COLUMNS
 
 GENERATOR = "make results-doc"
@@ -63,12 +70,10 @@ def _committed_reason(agent: str, env_id: str) -> str:
     )
 
 
-def _method(method: str, extra: dict[str, str]) -> str:
-    """The method's name, with the summary's extra columns (``bilevel_planning (search=gbfs)``)."""
-    name = agent_name(method)
-    if extra:
-        name += " (" + ", ".join(f"{k}={v}" for k, v in extra.items()) + ")"
-    return name
+def _with_settings(result: Result, extra: dict[str, str]) -> Result:
+    """The result named with the summary's extra columns (``bilevel_planning (search=gbfs)``)."""
+    settings = ", ".join(f"{k}={v}" for k, v in extra.items())
+    return dataclasses.replace(result, method=agent_name(result.method), settings=settings)
 
 
 def results_markdown(files: Sequence[Path], link_root: Path) -> str:
@@ -89,7 +94,7 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
                     f"{path}:{n}: the row of {r.method} on {r.env_id} has no command; add the "
                     "command that produced it in a 'command' column"
                 )
-            everything.append(dataclasses.replace(r, method=_method(r.method, extra)))
+            everything.append(_with_settings(r, extra))
         per_file.append((path, results, extras))
     lines = [
         "# KinDERBench results",
@@ -128,7 +133,7 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
         ]
         for r, extra in zip(results, extras):
             number = commands.setdefault(r.command, len(commands) + 1)
-            method = _method(r.method, extra)
+            method = _with_settings(r, extra).name
             cells = [
                 fmt_stat(r.stat(m), metric_digits(m, r.stat(m))) for m in ("SR", "Rwd", "Inf-Time")
             ]
