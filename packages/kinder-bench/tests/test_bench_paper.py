@@ -282,6 +282,23 @@ def test_bench_run_agent_all_skips_what_cannot_run(toy_id: str, tmp_path: Path) 
     assert result.exit_code == 2 and "needs a planning model" in result.output
 
 
+def test_bench_run_label_names_a_variant(toy_id: str, tmp_path: Path) -> None:
+    base = ["bench", "run", "--env", toy_id, "--import", "kinder_bench_toy", "--seeds", "0"]
+    base += ["--episodes", "1", "--max-steps", "3", "--executor", "inline", "--no-progress"]
+    out_dir = tmp_path / "variant"
+    result = CliRunner().invoke(
+        app, [*base, "--agent", "random", "--label", "random-variant", "--out", str(out_dir)]
+    )
+    assert result.exit_code == 0, result.output
+    (row,) = csv.DictReader(io.StringIO((out_dir / "summary.csv").read_text()))
+    assert (row["method"], row["agent"]) == ("random-variant", "random")
+    for bad in (["--agent", "random", "--agent", "mpc"], ["--agent", "random", "--label", " "]):
+        if "--label" not in bad:
+            bad = [*bad, "--label", "x"]
+        result = CliRunner().invoke(app, [*base, *bad, "--out", str(tmp_path / "bad")])
+        assert result.exit_code == 2 and "exactly one --agent" in result.output
+
+
 REPO = Path(__file__).resolve().parents[3]
 
 

@@ -305,6 +305,14 @@ def bench_run(
     progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
     report: Annotated[bool, typer.Option(help="Write and print the report at the end.")] = True,
     html: Annotated[bool, typer.Option(help="The report also writes report.html.")] = False,
+    label: Annotated[
+        str | None,
+        typer.Option(
+            help="The method's name in the tables (default: the agent's; one agent only). A "
+            "name other than the agent's marks a variant (e.g. ppo-dense): it gets its own "
+            "column beside the paper's."
+        ),
+    ] = None,
     imports: ImportOpt = None,
 ) -> None:
     """Run every agent on every env over the seeds (resuming what the run directory has).
@@ -318,9 +326,14 @@ def bench_run(
         fail("give at least one --env (or --suite paper)")
     if executor not in EXECUTORS:
         fail(f"--executor {executor!r}: expected one of {list(EXECUTORS)}")
+    if label is not None and (len(agent or []) != 1 or agent == ["all"] or not label.strip()):
+        fail(f"--label {label!r}: expected a non-empty name and exactly one --agent")
     pairs = _runnable(envs_, agent or ["random"], args)
     seed_list = parse_seeds(seeds)
-    runs = [RunConfig(e, a, a_args, seed_list, episodes, max_steps) for e, a, a_args in pairs]
+    runs = [
+        RunConfig(e, a, a_args, seed_list, episodes, max_steps, label=label)
+        for e, a, a_args in pairs
+    ]
     with user_errors():
         outcome = run_benchmark(
             runs,
