@@ -292,9 +292,9 @@ def test_bench_run_label_names_a_variant(toy_id: str, tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     (row,) = csv.DictReader(io.StringIO((out_dir / "summary.csv").read_text()))
     assert (row["method"], row["agent"]) == ("random-variant", "random")
-    for bad in (["--agent", "random", "--agent", "mpc"], ["--agent", "random", "--label", " "]):
-        if "--label" not in bad:
-            bad = [*bad, "--label", "x"]
+    two_agents = ["--agent", "random", "--agent", "mpc", "--label", "x"]
+    blank_label = ["--agent", "random", "--label", " "]
+    for bad in (two_agents, blank_label):
         result = CliRunner().invoke(app, [*base, *bad, "--out", str(tmp_path / "bad")])
         assert result.exit_code == 2 and "exactly one --agent" in result.output
 

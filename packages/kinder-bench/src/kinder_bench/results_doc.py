@@ -18,7 +18,7 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from kinder_bench.agents import AGENTS, agent_name
+from kinder_bench.agents import AGENTS
 from kinder_bench.paper import (
     Result,
     compare,
@@ -73,7 +73,7 @@ def _committed_reason(agent: str, env_id: str) -> str:
 def _with_settings(result: Result, extra: dict[str, str]) -> Result:
     """The result named with the summary's extra columns (``bilevel_planning (search=gbfs)``)."""
     settings = ", ".join(f"{k}={v}" for k, v in extra.items())
-    return dataclasses.replace(result, method=agent_name(result.method), settings=settings)
+    return dataclasses.replace(result, settings=settings)
 
 
 def results_markdown(files: Sequence[Path], link_root: Path) -> str:
