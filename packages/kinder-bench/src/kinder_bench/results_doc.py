@@ -86,16 +86,18 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
     per_file = []
     everything = []
     for path in files:
-        results = results_from_csv(path)
-        extras = _extra_columns(path)
-        for n, (r, extra) in enumerate(zip(results, extras), start=2):
+        results = [
+            _with_settings(r, extra)
+            for r, extra in zip(results_from_csv(path), _extra_columns(path))
+        ]
+        for n, r in enumerate(results, start=2):
             if not r.command:
                 raise ValueError(
                     f"{path}:{n}: the row of {r.method} on {r.env_id} has no command; add the "
                     "command that produced it in a 'command' column"
                 )
-            everything.append(_with_settings(r, extra))
-        per_file.append((path, results, extras))
+        everything += results
+        per_file.append((path, results))
     lines = [
         "# KinDERBench results",
         "",
@@ -116,7 +118,7 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
         "",
     ]
     commands: dict[str, int] = {}
-    for path, results, extras in per_file:
+    for path, results in per_file:
         rel = os.path.relpath(path, link_root)
         lines.append(f"### `{path.name}`")
         lines.append("")
@@ -131,15 +133,14 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
             "| command |",
             "|---|---|---|---|---|---|---|---|",
         ]
-        for r, extra in zip(results, extras):
+        for r in results:
             number = commands.setdefault(r.command, len(commands) + 1)
-            method = _with_settings(r, extra).name
             cells = [
                 fmt_stat(r.stat(m), metric_digits(m, r.stat(m))) for m in ("SR", "Rwd", "Inf-Time")
             ]
             per_seed = r.episodes // max(1, r.num_seeds)
             lines.append(
-                f"| {r.env_id} | {method} | {r.num_seeds} × {per_seed} | "
+                f"| {r.env_id} | {r.name} | {r.num_seeds} × {per_seed} | "
                 + " | ".join(cells)
                 + f" | {r.errors} | [#{number}](#command-{number}) |"
             )
