@@ -23,18 +23,17 @@ posture fits behind an obstruction, ClearSurface pushes it together with the blo
 than 15 cm behind it (at most two), from the last one's trailing side, until the whole chain is
 off the surface; PushTarget never does (the blocks behind the target would end on the surface).
 
-Version notes: postures 2 and 3 were added in session 7. Before, only the first existed and the
-first planning call failed on 27 of 50 o1 episodes, 14 of them for want of room behind the
-target; BP SR went from 0.54 to 0.77 on o1 (5 × 50) and from 0.78 to 0.98 on o0 (5 × 10)
-(``benchmarks/results/bilevel_planning.md``). Also since session 7, ``NotObstructing`` is
-declared monotone with ``Obstructing`` as its negation (``PlanningModel.monotone_negations``): a
-push that shoves a second obstruction off the surface as well, common on o3 where obstructions
-touch each other, is accepted instead of rejected as a mismatch, and that obstruction's own
-``ClearSurface`` is skipped (o3's first planning call: 5 → 20 of 50 episodes solved). What still
-fails: blocks with no room even for leaning fingers, and pushes that move another block the
-wrong way (the target, or an obstruction back onto the surface). Session 8 added the chain
-pushes and the gripper-base clearance above neighbours: o3's first planning call 20 → 32 of 50
-episodes, o1's 37 → 42 (``benchmarks/bp_failure_causes.py``).
+Why postures 2 and 3 exist: with only the first, the first planning call failed on 27 of 50 o1
+episodes, 14 of them for want of room behind the target; with them, BP SR went from 0.54 to 0.77 on
+o1 (5 × 50) and from 0.78 to 0.98 on o0 (5 × 10) (``benchmarks/results/bilevel_planning.md``).
+``NotObstructing`` is declared monotone with ``Obstructing`` as its negation
+(``PlanningModel.monotone_negations``): a push that shoves a second obstruction off the surface as
+well, common on o3 where obstructions touch each other, is accepted instead of rejected as a
+mismatch, and that obstruction's own ``ClearSurface`` is skipped (o3's first planning call: 5 → 20
+of 50 episodes solved). What still fails: blocks with no room even for leaning fingers, and pushes
+that move another block the wrong way (the target, or an obstruction back onto the surface). The
+chain pushes and the gripper-base clearance above neighbours raised o3's first planning call from 20
+to 32 of 50 episodes solved, o1's from 37 to 42 (``benchmarks/bp_failure_causes.py``).
 
 Concepts:
 

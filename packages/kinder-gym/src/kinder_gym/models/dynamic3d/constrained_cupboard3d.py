@@ -48,7 +48,7 @@ Measured (``benchmarks/results/bilevel_planning.md``, BP defaults, 60 s planning
 1.00 and o6 0.96 at 5 seeds × 10 episodes, o2–o5 1.00 at 1 × 10; o6 plans take about 735 of
 the 1000 steps allowed (about 120 per rod); every failure was a planning timeout.
 
-Reuse (session 9, behaviour unchanged): SortClutteredBlocks3D-o12
+Reuse: SortClutteredBlocks3D-o12
 (:mod:`kinder_gym.models.dynamic3d.sort_cupboard3d`) subclasses these controllers: the grip
 distance (``PickController._grip``), the goal region (``PlaceController._region``), the slide's
 depth range, finger clearance, carry speed and height above the shelf are overridable.

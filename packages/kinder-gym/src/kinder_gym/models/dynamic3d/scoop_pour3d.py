@@ -43,7 +43,7 @@ An episode of o10 takes about 710-790 actions (71-79 per cube), within its 1000-
 rounded up to 500; o20: 2500; upstream registers no limit). BP solves o20 within its 60 s
 budget most of the time; the larger variants simulate too many steps to plan in 60 s.
 
-Version notes (session 9; planner-free, every cube in turn, ``benchmarks/skill_success.py pour
+Why the skills are as they are (planner-free, every cube in turn, ``benchmarks/skill_success.py pour
 --seeds 0-11``): before, 8 of 12 seeds were solved (Pick 102 of 113 tries reached its
 prediction, Place 101 of 104); with the three changes below, 12 of 12 (Pick 120 of 121, Place
 120 of 120).

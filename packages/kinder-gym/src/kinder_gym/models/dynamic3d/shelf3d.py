@@ -30,7 +30,7 @@ variant works. Imports kinder_garden3d (the ``[3d]`` extra).
 
 Version notes:
 
-* Session 9, behaviour unchanged: SortClutteredBlocks3D-o12
+* Reuse: SortClutteredBlocks3D-o12
   (:mod:`kinder_gym.models.dynamic3d.sort_cupboard3d`) reuses these controllers, so the goal
   region is per cube (``ShelfContext.regions``), the Place's spot range, spot count and carry
   height are class attributes, and two options its cupboard needs are off here: ``detours``

@@ -66,7 +66,7 @@ Imports kinder_garden3d (the ``[3d]`` extra).
 
 Version notes:
 
-* Fixtures and o50 (issue 18, session 11): the room's bounds (x below the cooking counter's
+* Fixtures and o50 (issue 18): the room's bounds (x below the cooking counter's
   front everywhere, y below the side counter's) became the fixtures' rectangles, because the
   goal area of the "right side of the kitchen counter" task lies past the counter's end, beyond
   the old x bound (no place could reach it); the blocks stopped being obstacles to the base;
