@@ -23,6 +23,7 @@ from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_core.state import FloatArray
 from kinder_garden2d.dynamic2d import object_types as ot
 from kinder_garden2d.dynamic2d.geometry import kin_robot_geometry, place, transform
+from kinder_garden2d.dynamic2d.pd_physics import BodySpec, PDSettings, PDSpace
 from kinder_garden2d.dynamic2d.physics import (
     GAP_EPS,
     PhysicsSettings,
@@ -44,9 +45,25 @@ OUTLINE = (20, 20, 20)
 class Dynamic2DConfig:
     """Constants every Dynamic2D family shares (each family's config subclasses this).
 
-    Time: each action lasts ``action_seconds`` of simulated time, integrated in substeps of
-    ``substep_seconds``; the robot's commanded motion is spread evenly over the substeps.
+    Transitions (``controller``): ``"pd"`` (the default) is upstream kindergarden 0.2.5's: a PD
+    controller (gains ``kp_*``/``kv_*``) sets the robot's velocities ``control_hz`` times per
+    second of simulated time, physics runs at ``sim_hz``, and one action lasts
+    ``(sim_hz // control_hz) ** 2 / sim_hz`` seconds (1 s with the defaults); see
+    :mod:`~kinder_garden2d.dynamic2d.pd_physics`. ``"linear"`` is a kept alternative, off by
+    default: each action lasts ``action_seconds`` of simulated time, integrated in substeps of
+    ``substep_seconds``, and the robot follows its commanded motion exactly, spread evenly over
+    the substeps (:mod:`~kinder_garden2d.dynamic2d.physics`).
     """
+
+    controller: str = "pd"
+    control_hz: int = 10
+    sim_hz: int = 100
+    kp_pos: float = 50.0
+    kv_pos: float = 5.0
+    kp_rot: float = 50.0
+    kv_rot: float = 5.0
+    # Upstream lets a freshly sampled scene settle this long (robot still) before the episode.
+    stabilization_seconds: float = 1.0
 
     world_min_x: float = 0.0
     world_max_x: float = 1.0
@@ -148,6 +165,21 @@ class KinRobotConfig(Dynamic2DConfig):
         return vals
 
 
+def upstream_walls(cfg: KinRobotConfig) -> list[tuple[str, float, float, float, float]]:
+    """Upstream's four room walls as (name, x, y, width, height), centred boxes just outside the
+    world, as thick as twice the largest base step."""
+    x0, x1, y0, y1 = cfg.world_min_x, cfg.world_max_x, cfg.world_min_y, cfg.world_max_y
+    dx, dy = cfg.max_dx, cfg.max_dy
+    side_h = y1 - y0
+    horiz_w = 2 * 2 * abs(-dx) + x1 - x0
+    return [
+        ("right_wall", x1 + dx, (y0 + y1) / 2, 2 * dx, side_h),
+        ("left_wall", x0 - dx, (y0 + y1) / 2, 2 * abs(-dx), side_h),
+        ("top_wall", (x0 + x1) / 2, y1 + dy, horiz_w, 2 * dy),
+        ("bottom_wall", (x0 + x1) / 2, y0 - dy, horiz_w, 2 * abs(-dy)),
+    ]
+
+
 def object_values(
     x: float,
     y: float,
@@ -236,8 +268,61 @@ class Dynamic2DEnv(ObjectCentricEnv):
         super().__init__(render_mode=render_mode)
         self.config = config
         config.physics().substeps  # noqa: B018 (validates the time settings early)
+        if config.controller not in ("pd", "linear"):
+            raise ValueError(f"controller must be 'pd' or 'linear', got {config.controller!r}")
+        if config.control_hz < 1 or config.sim_hz % config.control_hz:
+            raise ValueError(
+                f"sim_hz ({config.sim_hz}) must be a positive multiple of control_hz "
+                f"({config.control_hz})"
+            )
         self.num_physics_reverts = 0
         self._warned_revert = False
+
+    # -- upstream's PD transitions (controller "pd") -------------------------------------------
+    @property
+    def uses_pd(self) -> bool:
+        """Whether transitions are upstream's PD-controlled ones (the default, for the families
+        that implement :meth:`_pd_specs`)."""
+        return self.config.controller == "pd" and self.has_pd
+
+    has_pd = False  # families that build upstream's space set this
+
+    def _pd_settings(self) -> PDSettings:
+        """The family's PD physics settings (families override to add their specifics)."""
+        cfg = self.config
+        return PDSettings(
+            gravity=cfg.gravity,
+            damping=cfg.damping,
+            collision_slop=cfg.collision_slop,
+            control_hz=cfg.control_hz,
+            sim_hz=cfg.sim_hz,
+            kp_pos=cfg.kp_pos,
+            kv_pos=cfg.kv_pos,
+            kp_rot=cfg.kp_rot,
+            kv_rot=cfg.kv_rot,
+        )
+
+    def _pd_specs(self, state: ObjectCentricState) -> list[BodySpec]:
+        """How each object of ``state`` (and each constant object) enters upstream's space."""
+        raise NotImplementedError(f"{type(self).__name__} has no PD transitions")
+
+    def _pd_space(self, state: ObjectCentricState) -> PDSpace:
+        return PDSpace(self._pd_settings(), self.robot, state[self.robot], self._pd_specs(state))
+
+    def _pd_settle(self, state: ObjectCentricState) -> ObjectCentricState:
+        """Upstream's reset: the sampled scene settles for ``stabilization_seconds`` with the
+        robot still; the state is then read back from the simulation (velocities included)."""
+        sim = self._pd_space(state)
+        sim.settle(self.config.stabilization_seconds)
+        sim.write(state)
+        return state
+
+    def _pd_transition(self, state: ObjectCentricState, action: FloatArray) -> ObjectCentricState:
+        sim = self._pd_space(state)
+        sim.reindex()
+        sim.act(action)
+        sim.write(state)
+        return state
 
     # -- family hooks --------------------------------------------------------------------------
     @abc.abstractmethod
@@ -292,6 +377,8 @@ class Dynamic2DEnv(ObjectCentricEnv):
 
     # -- dynamics ------------------------------------------------------------------------------
     def _transition(self, state: ObjectCentricState, action: FloatArray) -> ObjectCentricState:
+        if self.uses_pd:
+            return self._pd_transition(state, action)
         scene = self.scene
         scene.index(state)
         data = state.data

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -16,7 +17,7 @@ from kinder_garden2d.dynamic2d.base_env import (
     KinRobotConfig,
     object_values,
     resolve_config,
-    uniform,
+    upstream_walls,
 )
 from kinder_garden2d.dynamic2d.geometry import (
     WorldShape,
@@ -26,6 +27,15 @@ from kinder_garden2d.dynamic2d.geometry import (
     place,
     rect_shape,
     transform,
+)
+from kinder_garden2d.dynamic2d.pd_physics import (
+    CT_ARM,
+    CT_FINGER,
+    CT_ROBOT,
+    BodySpec,
+    PDSettings,
+    dynamic_rect,
+    static_rect,
 )
 from kinder_garden2d.dynamic2d.physics import Scene, StaticBox
 from kinder_garden2d.rendering import Canvas
@@ -47,14 +57,14 @@ class DynObstruction2DConfig(KinRobotConfig):
     block_height: tuple[float, float] = (0.24, 0.48)
     block_mass: float = 1.0
     surface_padding: tuple[float, float] = (0.048, 0.12)  # surface width = block width + this
-    # Centres of the target surface and the blocks stay this far from the side walls, so that the
-    # robot can reach them from above.
-    reach_margin: float = 0.4
     obstruction_overlap_prob: float = 0.9
-    robot_init_y: tuple[float, float] = (1.0, 1.6)
+    # The robot's initial pose: x, y and θ uniform in these ranges (rejected if it collides).
+    robot_init_x: tuple[float, float] = (0.2, 0.8)
+    robot_init_y: tuple[float, float] = (0.2, 0.8)
     robot_init_theta: tuple[float, float] = (-math.pi / 2, math.pi / 2)
     goal_tolerance: float = 0.025
     settle_max_seconds: float = 1.0
+    init_robot_pos: tuple[float, float] = (0.5, 0.5)  # where upstream creates the robot's bodies
 
 
 class DynObstruction2DEnv(Dynamic2DEnv):
@@ -136,6 +146,8 @@ class DynObstruction2DEnv(Dynamic2DEnv):
     * v0: initial version.
     """
 
+    has_pd = True
+
     def __init__(
         self,
         num_obstructions: int = 2,
@@ -178,74 +190,129 @@ class DynObstruction2DEnv(Dynamic2DEnv):
             + [self.robot]
         )
 
-    # -- sampling --------------------------------------------------------------------------------
+    # -- sampling (upstream's procedure, draw for draw) ---------------------------------------
     def _sample_unsettled(self, rng: np.random.Generator) -> ObjectCentricState:
+        """One candidate scene, drawn as upstream draws it, or a rejected one (see
+        :meth:`_valid_unsettled`)."""
         cfg = self.config
-        lo_x, hi_x = cfg.world_min_x + cfg.reach_margin, cfg.world_max_x - cfg.reach_margin
-        top = cfg.table_height
-        statics = [WorldShape((sb.poly,)) for sb in self.scene.statics]
-        tries = 100  # per object
-        for _ in range(max(1, cfg.max_reset_tries // tries)):
-            sw = 0.0
-            feats: dict[Object, dict[str, float]] = {}
-            spans: list[tuple[float, float]] = []  # x-extents of the blocks on the table
-            ok = True
-            for obj in (self.target_block, *self.obstructions):
-                for _ in range(tries):
-                    w, h = uniform(rng, *cfg.block_width), uniform(rng, *cfg.block_height)
-                    if obj == self.target_block:
-                        sw = w + uniform(rng, *cfg.surface_padding)
-                        sx = uniform(rng, max(lo_x, sw / 2), min(hi_x, cfg.world_max_x - sw / 2))
-                        x = uniform(rng, lo_x, hi_x)
-                        if abs(x - sx) < (sw - w) / 2 + cfg.goal_tolerance:
-                            continue  # the goal would already hold
-                    elif rng.uniform() < cfg.obstruction_overlap_prob:
-                        reach = sw / 2 + w / 2
-                        x = uniform(rng, max(lo_x, sx - reach), min(hi_x, sx + reach))
-                    else:
-                        x = uniform(rng, lo_x, hi_x)
-                    if any(x + w / 2 > a and x - w / 2 < b for a, b in spans):
-                        continue
-                    spans.append((x - w / 2, x + w / 2))
-                    color = ot.PURPLE if obj == self.target_block else ot.RED
-                    feats[obj] = object_values(
-                        x,
-                        top + h / 2,
-                        0.0,
-                        color,
-                        ot.Z_ALL,
-                        width=w,
-                        height=h,
-                        mass=cfg.block_mass,
-                    )
-                    break
-                else:
-                    ok = False
-                    break
-            if not ok:
-                continue
-            feats[self.target_surface] = object_values(
-                sx, top / 2, 0.0, ot.PURPLE, ot.Z_NONE, static=True, width=sw, height=top
-            )
-            blocks = [
-                place(rect_shape(f["width"], f["height"]), f["x"], f["y"], 0.0)
-                for o, f in feats.items()
-                if o != self.target_surface
-            ]
-            for _ in range(tries):
-                robot = cfg.robot_values(
-                    uniform(rng, cfg.world_min_x + 0.3, cfg.world_max_x - 0.3),
-                    uniform(rng, *cfg.robot_init_y),
-                    uniform(rng, *cfg.robot_init_theta),
-                )
-                shape = kin_robot_geometry([robot[f] for f in ot.KIN_ROBOT_FEATURES]).shape
-                if not any(overlaps(shape, o) for o in (*blocks, *statics)):
-                    feats[self.robot] = robot
-                    return ObjectCentricState.from_features(feats)
-        raise RuntimeError(
-            f"DynObstruction2D: could not place the target block, {self.num_obstructions} "
-            f"obstructions and the robot without overlaps in {cfg.max_reset_tries} tries"
+        w_world = cfg.world_max_x - cfg.world_min_x
+        table_y = cfg.world_min_y + cfg.table_height / 2
+        block_y = table_y + cfg.table_height + 1e-6  # upstream's block pose y (bottom edge)
+        r = cfg.robot_base_radius
+        rx = rng.uniform(cfg.robot_init_x[0], cfg.robot_init_x[1])
+        ry = rng.uniform(cfg.robot_init_y[0], cfg.robot_init_y[1])
+        rth = rng.uniform(cfg.robot_init_theta[0], cfg.robot_init_theta[1])
+        bx = rng.uniform(cfg.world_min_x + r, cfg.world_max_x - r)
+        rng.uniform(block_y, block_y)  # upstream draws y and θ of fixed-range poses too
+        rng.uniform(0.0, 0.0)
+        bw = rng.uniform(*cfg.block_width)
+        bh = rng.uniform(*cfg.block_height)
+        sx = rng.uniform(cfg.world_min_x, cfg.world_max_x - r)
+        rng.uniform(table_y, table_y)
+        rng.uniform(0.0, 0.0)
+        sw = bw + rng.uniform(*cfg.surface_padding)
+        del w_world
+        feats: dict[Object, dict[str, float]] = {}
+        feats[self.target_surface] = object_values(
+            sx, table_y, 0.0, ot.PURPLE, ot.Z_NONE, static=True, width=sw, height=cfg.table_height
         )
+        feats[self.target_block] = object_values(
+            bx, block_y + bh / 2, 0.0, ot.PURPLE, ot.Z_ALL, width=bw, height=bh, mass=cfg.block_mass
+        )
+        for obj in self.obstructions:
+            ow = rng.uniform(*cfg.block_width)
+            oh = rng.uniform(*cfg.block_height)
+            if rng.uniform() < cfg.obstruction_overlap_prob:
+                lo, hi = sx - ow, sx + sw
+            else:
+                lo, hi = cfg.world_min_x + r, cfg.world_max_x - r
+            ox = rng.uniform(lo, hi)
+            rng.uniform(block_y, block_y)
+            rng.uniform(0.0, 0.0)
+            feats[obj] = object_values(
+                ox,
+                block_y + oh / 2,
+                0.0,
+                ot.RED,
+                ot.Z_ALL,
+                width=ow,
+                height=oh,
+                mass=cfg.block_mass,
+            )
+        feats[self.robot] = cfg.robot_values(rx, ry, rth)
+        return ObjectCentricState.from_features(feats)
+
+    def _valid_unsettled(self, state: ObjectCentricState) -> bool:
+        """Upstream's rejection rules: the goal does not hold, nothing overlaps (the robot, the
+        blocks, the table and the walls; the target surface collides with nothing) and the
+        surface lies within the table."""
+        if self.goal_reached(state):
+            return False
+        cfg = self.config
+        robot = kin_robot_geometry(state[self.robot]).shape
+        blocks = [self._block_shape(state, o) for o in (self.target_block, *self.obstructions)]
+        statics = [WorldShape((sb.poly,)) for sb in self._upstream_statics()]
+        for i, blk in enumerate(blocks):
+            if overlaps(robot, blk) or any(overlaps(blk, o) for o in blocks[i + 1 :]):
+                return False
+            if any(overlaps(blk, st) for st in statics):
+                return False
+        if any(overlaps(robot, st) for st in statics):
+            return False
+        s = state[self.target_surface]
+        return bool(s[0] - s[12] / 2 >= cfg.world_min_x and s[0] + s[12] / 2 <= cfg.world_max_x)
+
+    def _upstream_statics(self) -> list[StaticBox]:
+        cfg = self.config
+        boxes = [
+            StaticBox(x - w / 2, x + w / 2, y - h / 2, y + h / 2)
+            for _, x, y, w, h in upstream_walls(cfg)
+        ]
+        boxes.append(StaticBox(cfg.world_min_x, cfg.world_max_x, 0.0, cfg.table_height))
+        return boxes
+
+    def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
+        for _ in range(self.config.max_reset_tries):
+            state = self._sample_unsettled(rng)
+            if self._valid_unsettled(state):
+                return self._pd_settle(state)
+        raise RuntimeError(
+            f"DynObstruction2D: no valid initial state in {self.config.max_reset_tries} draws"
+        )
+
+    def _pd_settings(self) -> PDSettings:
+        return dataclasses.replace(
+            super()._pd_settings(),
+            init_robot_pos=self.config.init_robot_pos,
+            static_stops=(CT_ROBOT, CT_FINGER, CT_ARM),
+        )
+
+    def _pd_specs(self, state: ObjectCentricState) -> list[BodySpec]:
+        cfg = self.config
+        specs = [
+            BodySpec(name, None, static_rect(x, y, 0.0, w, h))
+            for name, x, y, w, h in upstream_walls(cfg)
+        ]
+        w_world = cfg.world_max_x - cfg.world_min_x
+        specs.append(
+            BodySpec(
+                "table",
+                None,
+                static_rect(
+                    cfg.world_min_x + w_world / 2,
+                    cfg.world_min_y + cfg.table_height / 2,
+                    0.0,
+                    w_world,
+                    cfg.table_height,
+                ),
+            )
+        )
+        s = state[self.target_surface]
+        specs.append(BodySpec("target_surface", None, static_rect(s[0], s[1], s[2], s[12], s[13])))
+        for obj in (self.target_block, *self.obstructions):
+            f = state[obj]
+            specs.append(BodySpec(obj.name, obj, dynamic_rect(f, f[12], f[13], f[14])))
+        return specs
 
     def _block_shape(self, state: ObjectCentricState, obj: Object) -> Any:
         f = state[obj]

@@ -223,17 +223,18 @@ def kin_robot_local(
     finger_h: float,
     finger_w: float,
 ) -> tuple[Poly, Poly, Poly, Poly]:
-    """Arm, gripper base and the two fingers in the base frame (x along the arm).
+    """Arm, gripper base and the two fingers in the base frame (x along the arm), as upstream
+    builds them.
 
     The gripper base (``gripper_w`` along the arm × ``gripper_h`` across) is centred at distance
-    ``arm_joint``; the arm is a bar of length ``arm_length`` behind it (half the gripper width
-    thick); the fingers (``finger_w`` along × ``finger_h`` across) start at the gripper base's front
-    face with centres ``finger_gap`` apart, the left one (+y) first.
+    ``arm_joint``; the arm is a bar of length ``arm_length`` and thickness ``gripper_w`` behind it;
+    the fingers (``finger_w`` along × ``finger_h`` across) start at the gripper base's centre with
+    centres ``finger_gap`` apart, the left one (+y) first.
     """
     gx = arm_joint
-    arm = box(gx - arm_length, gx, -gripper_w / 4, gripper_w / 4)
+    arm = box(gx - gripper_w / 2 - arm_length, gx - gripper_w / 2, -gripper_w / 2, gripper_w / 2)
     gripper = box(gx - gripper_w / 2, gx + gripper_w / 2, -gripper_h / 2, gripper_h / 2)
-    f0, f1 = gx + gripper_w / 2, gx + gripper_w / 2 + finger_w
+    f0, f1 = gx, gx + finger_w
     half = finger_gap / 2
     left = box(f0, f1, half - finger_h / 2, half + finger_h / 2)
     right = box(f0, f1, -half - finger_h / 2, -half + finger_h / 2)

@@ -441,7 +441,7 @@ class Simulation:
             0.0, self.arm_len, self.gw, self.gh, 0.0, self.fh, self.fw
         )
         # Finger bodies have their origin at the finger centre (left/right made at zero gap).
-        finger = left - np.array([self.gw / 2 + self.fw / 2, 0.0])
+        finger = left - np.array([self.fw / 2, 0.0])
         self.base = self._robot_body("base", (), CT_ROBOT, ot.Z_ALL, radius=self.radius)
         self.gripper = self._robot_body("gripper", (arm, grip), CT_ROBOT, ot.Z_SURFACE)
         self.finger_l = self._robot_body("finger_l", (finger,), CT_FINGER, ot.Z_SURFACE)
@@ -459,7 +459,7 @@ class Simulation:
         x, y, th, arm, gap = q
         c, s = math.cos(th), math.sin(th)
         gx, gy = x + arm * c, y + arm * s
-        fo = self.gw / 2 + self.fw / 2
+        fo = self.fw / 2
         h = gap / 2
         return (
             gx,
@@ -538,7 +538,7 @@ class Simulation:
         cog = lib.cpBodyLocalToWorld(body, lib.cpBodyGetCenterOfGravity(body))
         if abs(-(cog.x - gx) * s + (cog.y - gy) * c) > self.gh / 2:
             return
-        lo, hi = self.gw / 2 - 1e-6, self.gw / 2 + self.fw + 1e-6
+        lo, hi = -1e-6, self.fw + 1e-6
         cps = lib.cpArbiterGetContactPointSet(arb)
         for k in range(cps.count):
             for p in (cps.points[k].pointA, cps.points[k].pointB):
