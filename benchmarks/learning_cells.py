@@ -72,7 +72,7 @@ def main(method: str, argv: list[str] | None = None) -> int:
     import torch
 
     from kinder_bench.baselines.demo_data import read_dataset_spec
-    from kinder_bench.cli import parse_seeds
+    from kinder_bench.cli.common import parse_seeds
     from kinder_bench.envs import resolve_env_id, short_id
     from kinder_bench.report import write_report
     from kinder_bench.results import write_json

@@ -10,9 +10,6 @@ from kinder_bench_toy import CrashingAgent
 
 import kinder_bench.agents as agents_module
 from kinder_bench.agents import (
-    MPCAgent,
-    MPCArgs,
-    RandomAgent,
     agent_class,
     describe_args,
     field_docs,
@@ -20,7 +17,8 @@ from kinder_bench.agents import (
     make_args,
     register_agent,
 )
-from kinder_bench.agents.mpc import interpolation_matrix
+from kinder_bench.baselines.mpc import MPCAgent, MPCArgs, interpolation_matrix
+from kinder_bench.baselines.random_agent import RandomAgent
 from kinder_bench.envs import make_env
 
 

@@ -10,7 +10,8 @@ import pytest
 from typer.testing import CliRunner
 
 import kinder_core
-from kinder_bench.cli import app, parse_seeds
+from kinder_bench.cli import app
+from kinder_bench.cli.common import parse_seeds
 from kinder_bench.demo import DemoEnv, run_demo
 from kinder_bench.results import load_records
 

@@ -348,7 +348,7 @@ def test_an_agent_that_needs_a_checkpoint(
 
 
 def test_suite_paper_with_agent_all_expands_to_what_can_run() -> None:
-    from kinder_bench.cli import _runnable, _suite_envs
+    from kinder_bench.cli.bench import _runnable, _suite_envs
 
     envs = _suite_envs("paper")
     assert envs and set(envs) <= set(PAPER_ENVS)

@@ -19,7 +19,6 @@ import pytest
 
 from kinder_bench.agents import AGENTS, agent_class, describe_args, make_agent
 from kinder_bench.agents.base import AgentFailure
-from kinder_bench.agents.random_agent import RandomAgent
 from kinder_bench.baselines.bilevel_planning import plan_episode, use_model
 from kinder_bench.baselines.fm_planning.agents import FMPlanningAgent
 from kinder_bench.baselines.fm_planning.client import CacheMiss, ChatClient, ChatError
@@ -38,6 +37,7 @@ from kinder_bench.baselines.fm_planning.scripted_server import (
     prompt_text,
     table_responder,
 )
+from kinder_bench.baselines.random_agent import RandomAgent
 from kinder_bench.protocol import PAPER_ENVS
 from kinder_bench.runner import TIMING_FIELDS, RunConfig, episode_seeds, run_benchmark
 from kinder_core import make_object_centric

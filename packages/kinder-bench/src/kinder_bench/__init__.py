@@ -10,14 +10,13 @@ from kinder_bench.agents import (
     AGENTS,
     Agent,
     AgentFailure,
-    MPCAgent,
-    MPCArgs,
     NoArgs,
-    RandomAgent,
     agent_class,
     make_agent,
     register_agent,
 )
+from kinder_bench.baselines.mpc import MPCAgent, MPCArgs
+from kinder_bench.baselines.random_agent import RandomAgent
 from kinder_bench.metrics import Stat, Summary, aggregate, summarize
 from kinder_bench.report import csv_table, markdown_table, write_report
 from kinder_bench.results import load_records

@@ -1,9 +1,12 @@
-"""Agents: the interface, the registry, and the baselines.
+"""Agents: the interface the runner drives, the registry and argument handling.
 
-Agents are looked up by name (``random``, ``mpc``, ...) or by a ``"module:Class"`` entry point, so
-new baselines plug in without touching the runner. Arguments are one frozen dataclass per agent
-(``Agent.Args``) with a docstring under every field; :func:`make_args` builds one from a mapping
-(values may be strings from the command line) and :func:`describe_args` lists the fields.
+This is the evaluation-level contract; every baseline (random and MPC included) lives in
+:mod:`kinder_bench.baselines` and is registered here by its ``"module:Class"`` string, so this
+package imports none of them. Agents are looked up by name (``random``, ``mpc``, ...) or by a
+``"module:Class"`` entry point, so new baselines plug in without touching the runner. Arguments are
+one frozen dataclass per agent (``Agent.Args``) with a docstring under every field;
+:func:`make_args` builds one from a mapping (values may be strings from the command line) and
+:func:`describe_args` lists the fields.
 """
 
 from __future__ import annotations
@@ -24,13 +27,11 @@ from typing import Any
 import gymnasium
 
 from kinder_bench.agents.base import Agent, AgentFailure, NoArgs
-from kinder_bench.agents.mpc import MPCAgent, MPCArgs
-from kinder_bench.agents.random_agent import RandomAgent
 
 #: Agent name → ``"module:Class"``. Entry points are strings so heavy baselines import lazily.
 AGENTS: dict[str, str] = {
-    "random": "kinder_bench.agents.random_agent:RandomAgent",
-    "mpc": "kinder_bench.agents.mpc:MPCAgent",
+    "random": "kinder_bench.baselines.random_agent:RandomAgent",
+    "mpc": "kinder_bench.baselines.mpc:MPCAgent",
     "bilevel_planning": "kinder_bench.baselines.bilevel_planning:BilevelPlanningAgent",
     "llm_plan": "kinder_bench.baselines.fm_planning.agents:LLMPlanAgent",
     "vlm_plan": "kinder_bench.baselines.fm_planning.agents:VLMPlanAgent",
@@ -205,10 +206,7 @@ __all__ = [
     "AGENTS",
     "Agent",
     "AgentFailure",
-    "MPCAgent",
-    "MPCArgs",
     "NoArgs",
-    "RandomAgent",
     "agent_class",
     "agent_name",
     "args_to_dict",

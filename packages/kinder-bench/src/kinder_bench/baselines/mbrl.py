@@ -3,7 +3,7 @@
 The paper's "MBRL" baseline (appendix; spec baselines §3.2). A transition model is trained on the
 demonstrations' transitions (consecutive frames of one episode of a KinDER dataset, see
 :mod:`kinder_bench.baselines.demo_data`) by :func:`train_mbrl` (``kinder train mbrl``), and the
-agent ``mbrl`` runs the existing MPC (:class:`~kinder_bench.agents.mpc.MPCAgent`, same arguments
+agent ``mbrl`` runs the existing MPC (:class:`~kinder_bench.baselines.mpc.MPCAgent`, same arguments
 and defaults) with rollouts on that model instead of the env's ``transition``.
 
 Model (``StateDeltaModel``): input ``[state, action]`` (state = the full Box observation vector
@@ -47,8 +47,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from kinder_bench.agents.base import needs_checkpoint
-from kinder_bench.agents.mpc import MPCAgent, MPCArgs
 from kinder_bench.baselines.demo_data import read_dataset_spec, resolve_dataset_env
+from kinder_bench.baselines.mpc import MPCAgent, MPCArgs
 from kinder_bench.results import package_versions, write_json
 from kinder_bench.training.checkpoints import (
     MARKER,

@@ -16,17 +16,18 @@ from __future__ import annotations
 import json
 import time
 from pathlib import Path
-from typing import Annotated, Any, NoReturn
+from typing import Annotated, Any
 
 import typer
+
+from kinder_bench.cli.common import fail, load_imports, parse_agent_args, user_errors
 
 demos_app = typer.Typer(
     help="Demonstrations: collect, build, replay, inspect and convert datasets.",
     no_args_is_help=True,
 )
 
-# The same options as `kinder bench run` (kinder_bench.cli imports this module, so the helpers
-# are imported from it inside the commands).
+# The options of `kinder bench run`, with this group's help texts.
 ImportOpt = Annotated[
     list[str] | None,
     typer.Option("--import", help="Module to import first (and in every worker). Repeatable."),
@@ -36,18 +37,6 @@ ArgOpt = Annotated[
     typer.Option("--arg", help="Agent argument KEY=VALUE (see `kinder agents`). Repeatable."),
 ]
 ImagesOpt = Annotated[bool, typer.Option(help="Render camera images into the dataset (videos).")]
-
-
-def fail(message: str) -> NoReturn:
-    from kinder_bench.cli import fail as cli_fail
-
-    cli_fail(message)
-
-
-def user_errors() -> Any:
-    from kinder_bench.cli import user_errors as cli_user_errors
-
-    return cli_user_errors()
 
 
 def _dataset_errors() -> Any:
@@ -83,7 +72,6 @@ def collect_cmd(
     imports: ImportOpt = None,
 ) -> None:
     """Collect successful demonstrations of one env (resumable), then build the dataset."""
-    from kinder_bench.cli import _import, parse_agent_args
     from kinder_bench.demo_collection import (
         CollectConfig,
         build_dataset,
@@ -92,7 +80,7 @@ def collect_cmd(
         resolve_collect,
     )
 
-    mods = _import(imports)
+    mods = load_imports(imports)
     agent_args = parse_agent_args(args, [agent])[agent]
     config = CollectConfig(env_id, agent, agent_args, episodes, seed, max_steps, max_attempts)
     with user_errors():

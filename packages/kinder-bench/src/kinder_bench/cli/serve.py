@@ -13,6 +13,8 @@ from typing import Annotated
 
 import typer
 
+from kinder_bench.cli.common import fail, load_imports, parse_agent_args, user_errors
+
 ArgOpt = Annotated[
     list[str] | None,
     typer.Option("--arg", help="Agent argument KEY=VALUE (see `kinder agents`). Repeatable."),
@@ -39,18 +41,15 @@ def serve_cmd(
 ) -> None:
     """Serve an agent (DP, DPES, ...) over openpi's WebSocket protocol, one episode at a time,
     until interrupted; evaluate it with `kinder bench run --agent vla --arg url=ws://HOST:PORT`."""
-    from kinder_bench.cli import _import, parse_agent_args, user_errors
     from kinder_bench.policy_server.agent_policy import AgentService
 
-    _import(imports)
+    load_imports(imports)
     agent_args = parse_agent_args(args, [agent])[agent]
     with user_errors():
         service = AgentService(agent, agent_args, env, seed=seed, busy_timeout=busy_timeout)
     try:
         server = service.server(host, port)
     except OSError as e:
-        from kinder_bench.cli import fail
-
         fail(f"cannot listen on {host}:{port}: {e}")
     typer.echo(
         f"serving {agent} on {service.env_id} at {server.url} (one episode at a time; "

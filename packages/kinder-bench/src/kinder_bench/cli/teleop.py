@@ -14,6 +14,8 @@ from typing import Annotated
 
 import typer
 
+from kinder_bench.cli.common import fail, user_errors
+
 
 def teleop_cmd(
     env_id: Annotated[
@@ -43,7 +45,6 @@ def teleop_cmd(
     ] = False,
 ) -> None:
     """Teleoperate an environment and record demonstrations."""
-    from kinder_bench.cli import fail, user_errors
     from kinder_bench.envs import resolve_env_id, short_id
 
     with user_errors():

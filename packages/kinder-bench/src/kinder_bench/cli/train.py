@@ -1,29 +1,22 @@
-"""``kinder train``: one command per learning baseline, each with the baseline's own options."""
+"""``kinder train``: one command per learning baseline, each with the baseline's own options.
+
+The trainers' shared library (checkpoints, CSV logs) is :mod:`kinder_bench.training`."""
 
 from __future__ import annotations
 
-import contextlib
 import json
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated
 
 import typer
+
+from kinder_bench.cli.common import fail, parse_seeds, user_errors
 
 train_app = typer.Typer(
     help="Train a learning baseline; evaluate it with `kinder bench run --agent NAME "
     "--arg checkpoint=DIR`.",
     no_args_is_help=True,
 )
-
-
-@contextlib.contextmanager
-def _user_errors() -> Iterator[None]:
-    try:
-        yield
-    except (ValueError, FileNotFoundError, ModuleNotFoundError, ImportError) as e:
-        typer.secho(f"Error: {e}", fg=typer.colors.RED, err=True)
-        raise typer.Exit(2) from None
 
 
 DatasetOpt = Annotated[Path, typer.Option(help="The demonstration dataset (LeRobot v3 directory).")]
@@ -56,7 +49,7 @@ def _diffusion(
     ema: bool,
     progress: bool,
 ) -> None:
-    with _user_errors():
+    with user_errors():
         import torch
 
         from kinder_bench.baselines.diffusion import DiffusionTrainArgs, train_diffusion
@@ -149,7 +142,7 @@ def train_mbrl_command(
 ) -> None:
     """MBRL: the state-delta model that the `mbrl` agent's MPC rolls out; prints its held-out
     one-step and 10-step open-loop errors."""
-    with _user_errors():
+    with user_errors():
         import torch
 
         from kinder_bench.baselines.mbrl import MBRLTrainArgs, train_mbrl
@@ -187,9 +180,8 @@ def ood_command(
 ) -> None:
     """The paper's OOD test: a policy trained on DynObstruction2D-o1 evaluated on o0-o3."""
     from kinder_bench.baselines.ood import OOD_ENVS, run_ood
-    from kinder_bench.cli import parse_seeds
 
-    with _user_errors():
+    with user_errors():
         table = run_ood(
             checkpoint, out, agent=agent, seeds=parse_seeds(seeds), episodes=episodes,
             workers=workers, executor=executor, progress=progress, device=device,
@@ -261,8 +253,6 @@ def _train_rl(
     hp: list[str] | None,
     progress: bool,
 ) -> None:
-    from kinder_bench.cli import fail, user_errors
-
     values: dict[str, object] = {
         "env_id": env,
         "seed": seed,

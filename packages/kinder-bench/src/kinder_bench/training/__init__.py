@@ -1,4 +1,5 @@
-"""Training the learning baselines (``kinder train <name>``).
+"""The trainers' shared library: checkpoints and CSV progress logs (the ``kinder train`` commands
+are :mod:`kinder_bench.cli.train`).
 
 Every trainer follows the same conventions so that runs look alike on disk:
 
