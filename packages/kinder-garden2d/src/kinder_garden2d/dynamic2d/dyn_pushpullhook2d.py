@@ -16,10 +16,11 @@ from kinder_garden2d.dynamic2d.base_env import (
     KinRobotConfig,
     object_values,
     resolve_config,
-    uniform,
+    upstream_walls,
 )
 from kinder_garden2d.dynamic2d.geometry import (
     WorldShape,
+    box,
     convex_penetration,
     kin_robot_geometry,
     lobject_shape,
@@ -27,6 +28,12 @@ from kinder_garden2d.dynamic2d.geometry import (
     place,
     rect_shape,
     transform,
+)
+from kinder_garden2d.dynamic2d.pd_physics import (
+    BodySpec,
+    dynamic_lobject,
+    dynamic_rect,
+    static_rect,
 )
 from kinder_garden2d.dynamic2d.physics import Scene, StaticBox
 
@@ -43,19 +50,13 @@ class DynPushPullHook2DConfig(KinRobotConfig):
     wall_height: float = 0.05
     robot_init: tuple[float, float] = (0.3, 0.4)  # x and y range
     robot_init_theta: tuple[float, float] = (0.0, math.pi / 2)
-    hook_width: float = 0.32 / 3
-    hook_length_side1: float = 1.4
-    hook_length_side2: float = 0.583
     hook_mass: float = 1.0
-    hook_init_x: tuple[float, float] = (1.4, 3.393)
-    hook_init_y: tuple[float, float] = (0.875, 1.167)
     hook_init_theta: tuple[float, float] = (-math.pi / 12, math.pi / 12)
-    target_size: tuple[float, float] = (0.16, 0.477)
-    target_init_x: tuple[float, float] = (0.583, 2.917)
-    target_init_y: tuple[float, float] = (2.333, 2.917)
-    obstruction_size: tuple[float, float] = (0.12, 0.583)
     obstruction_std: float = 0.25
     block_mass: float = 1.0
+    # The hook's thickness and arm lengths, the target's side range, the obstructions' size
+    # range and the hook's and target's position ranges derive from the world and gripper sizes
+    # as upstream derives them (see hook_shape() and the sampling).
     settle_max_seconds: float = 0.0
 
 
@@ -124,6 +125,8 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
     * v0: initial version.
     """
 
+    has_pd = True
+
     def __init__(
         self,
         num_obstructions: int = 3,
@@ -174,91 +177,124 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
             *sorted(self.obstructions, key=lambda o: o.name),
         ]
 
-    def _sample_unsettled(self, rng: np.random.Generator) -> ObjectCentricState:
+    # -- sampling (upstream's procedure, draw for draw) ---------------------------------------
+    def hook_shape(self) -> tuple[float, float, float]:
+        """The hook's (width, length_side1, length_side2), from the world and gripper sizes."""
         cfg = self.config
-        statics = [WorldShape((sb.poly,)) for sb in self.scene.statics]
-        lo = np.array([cfg.world_min_x, cfg.world_min_y])
-        hi = np.array([cfg.world_max_x, cfg.world_max_y])
-        tries = 100  # per object
-        for _ in range(max(1, cfg.max_reset_tries // tries)):
-            robot = cfg.robot_values(
-                uniform(rng, *cfg.robot_init),
-                uniform(rng, *cfg.robot_init),
-                uniform(rng, *cfg.robot_init_theta),
-            )
-            feats: dict[Object, dict[str, float]] = {self.robot: robot}
-            placed = [kin_robot_geometry([robot[f] for f in ot.KIN_ROBOT_FEATURES]).shape]
-
-            hook_geom = dict(
-                width=cfg.hook_width,
-                length_side1=cfg.hook_length_side1,
-                length_side2=cfg.hook_length_side2,
-                mass=cfg.hook_mass,
-            )
-            side = uniform(rng, *cfg.target_size)
-            todo: list[tuple[Object, dict[str, float], tuple[float, float, float]]] = [
-                (self.hook, hook_geom, ot.BROWN),
-                (self.target_block, dict(width=side, height=side, mass=cfg.block_mass), ot.ORANGE),
-            ]
-            for o in self.obstructions:
-                w, h = uniform(rng, *cfg.obstruction_size), uniform(rng, *cfg.obstruction_size)
-                todo.append((o, dict(width=w, height=h, mass=cfg.block_mass), ot.BROWN))
-            ok = True
-            for obj, geom, color in todo:
-                for _ in range(tries):
-                    x, y, th = self._sample_pose(rng, obj, feats)
-                    shape = self._shape(obj, x, y, th, geom)
-                    if _fits(shape, lo, hi, [*placed, *statics]):
-                        feats[obj] = object_values(x, y, th, color, ot.Z_SURFACE, **geom)
-                        placed.append(shape)
-                        break
-                else:
-                    ok = False
-                    break
-            if ok:
-                return ObjectCentricState.from_features(feats)
-        raise RuntimeError(
-            f"DynPushPullHook2D: could not place the hook, the target and "
-            f"{self.num_obstructions} obstructions without overlaps in {cfg.max_reset_tries} tries"
-        )
-
-    def _sample_pose(
-        self, rng: np.random.Generator, obj: Object, feats: dict[Object, dict[str, float]]
-    ) -> tuple[float, float, float]:
-        cfg = self.config
-        if obj == self.hook:
-            return (
-                uniform(rng, *cfg.hook_init_x),
-                uniform(rng, *cfg.hook_init_y),
-                uniform(rng, *cfg.hook_init_theta),
-            )
-        if obj == self.target_block:
-            return (
-                uniform(rng, *cfg.target_init_x),
-                uniform(rng, *cfg.target_init_y),
-                uniform(rng, -math.pi, math.pi),
-            )
-        target = feats[self.target_block]
         return (
-            float(rng.normal(target["x"], cfg.obstruction_std)),
-            float(rng.normal(target["y"], cfg.obstruction_std)),
-            uniform(rng, -math.pi, math.pi),
+            cfg.gripper_base_height / 3,
+            (cfg.world_min_y + cfg.world_max_y) * 2 / 5,
+            (cfg.world_min_y + cfg.world_max_y) / 6,
         )
 
-    def _shape(self, obj: Object, x: float, y: float, th: float, g: dict[str, float]) -> WorldShape:
-        if obj == self.hook:
-            local = lobject_shape(g["width"], g["length_side1"], g["length_side2"])
+    def _sample_unsettled(self, rng: np.random.Generator) -> ObjectCentricState:
+        raise NotImplementedError("DynPushPullHook2D samples objects one by one")
+
+    def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
+        """The robot, then the target and hook together, then each obstruction (a Gaussian
+        around the target), each redrawn until it collides with nothing, then upstream's settling.
+        """
+        cfg = self.config
+        hw, hl1, hl2 = self.hook_shape()
+        x0, x1, y0, y1 = cfg.world_min_x, cfg.world_max_x, cfg.world_min_y, cfg.world_max_y
+        robot = cfg.robot_values(
+            rng.uniform(cfg.robot_init[0], cfg.robot_init[1]),
+            rng.uniform(cfg.robot_init[0], cfg.robot_init[1]),
+            rng.uniform(cfg.robot_init_theta[0], cfg.robot_init_theta[1]),
+        )
+        robot_shape = kin_robot_geometry([robot[f] for f in ot.KIN_ROBOT_FEATURES]).shape
+        walls = [
+            WorldShape((box(x - w / 2, x + w / 2, y - h / 2, y + h / 2),))
+            for _, x, y, w, h in upstream_walls(cfg)
+        ]
+        tries = cfg.max_reset_tries
+        for _ in range(tries):
+            tx = rng.uniform(x0 + hl2, x1 - hl2)
+            ty = rng.uniform((y0 + y1) / 2 + hl2, y1 - hl2)
+            tth = rng.uniform(-np.pi, np.pi)
+            side = rng.uniform(cfg.gripper_base_height / 2, hl2 - hw)
+            hx = rng.uniform(x0 + hl1, x1 - hw)
+            hy = rng.uniform(hl2 * 1.5, (y0 + y1) / 2 - hl2)
+            hth = rng.uniform(cfg.hook_init_theta[0], cfg.hook_init_theta[1])
+            target_shape = place(rect_shape(side, side), tx, ty, tth)
+            hook = place(lobject_shape(hw, hl1, hl2), hx, hy, hth)
+            if not any(overlaps(a, b) for a in (target_shape, robot_shape) for b in (hook, *walls)):
+                break
         else:
-            local = rect_shape(g["width"], g["height"])
-        return place(local, x, y, th)
+            raise RuntimeError(f"DynPushPullHook2D: no target and hook pose in {tries} draws")
+        feats: dict[Object, dict[str, float]] = {
+            self.robot: robot,
+            self.hook: object_values(
+                hx,
+                hy,
+                hth,
+                ot.BROWN,
+                ot.Z_SURFACE,
+                width=hw,
+                length_side1=hl1,
+                length_side2=hl2,
+                mass=cfg.hook_mass,
+            ),
+            self.target_block: object_values(
+                tx, ty, tth, ot.ORANGE, ot.Z_SURFACE, width=side, height=side, mass=cfg.block_mass
+            ),
+        }
+        placed = [robot_shape, target_shape, hook, *walls]
+        for obj in sorted(self.obstructions, key=lambda o: o.name):
+            for _ in range(tries):
+                ox, oy = rng.normal(loc=(tx, ty), scale=cfg.obstruction_std, size=(2,))
+                if not (x0 < ox < x1 and y0 < oy < y1):
+                    continue
+                oth = rng.uniform(-np.pi, np.pi)
+                ow = rng.uniform(cfg.robot_base_radius / 2, hl2)
+                oh = rng.uniform(cfg.robot_base_radius / 2, hl2)
+                shape = place(rect_shape(ow, oh), ox, oy, oth)
+                if not any(overlaps(shape, other) for other in placed):
+                    break
+            else:
+                raise RuntimeError(f"DynPushPullHook2D: no pose for {obj.name} in {tries} draws")
+            placed.append(shape)
+            feats[obj] = object_values(
+                float(ox),
+                float(oy),
+                oth,
+                ot.BROWN,
+                ot.Z_SURFACE,
+                width=ow,
+                height=oh,
+                mass=cfg.block_mass,
+            )
+        return self._pd_settle(ObjectCentricState.from_features(feats))
+
+    def _pd_specs(self, state: ObjectCentricState) -> list[BodySpec]:
+        cfg = self.config
+        specs = [
+            BodySpec(name, None, static_rect(x, y, 0.0, w, h))
+            for name, x, y, w, h in upstream_walls(cfg)
+        ]
+        specs.append(
+            BodySpec(
+                "middle_wall",
+                None,
+                static_rect(
+                    (cfg.world_min_x + cfg.world_max_x) / 2,
+                    (cfg.world_min_y + cfg.world_max_y) / 2,
+                    0.0,
+                    cfg.world_max_x - cfg.world_min_x,
+                    cfg.wall_height,
+                ),
+            )
+        )
+        h = state[self.hook]
+        specs.append(
+            BodySpec("hook", self.hook, dynamic_lobject(h, h[12], h[13], h[14], h[15]), True)
+        )
+        for obj in (self.target_block, *self.obstructions):
+            f = state[obj]
+            specs.append(BodySpec(obj.name, obj, dynamic_rect(f, f[12], f[13], f[14]), True))
+        return specs
 
     def goal_reached(self, state: ObjectCentricState) -> bool:
         b = state[self.target_block]
         block = transform(rect_shape(b[12], b[13]).polys[0], b[0], b[1], b[2])
         return convex_penetration(block, self.middle_wall.poly) > 0.0
-
-
-def _fits(shape: WorldShape, lo: np.ndarray, hi: np.ndarray, others: list[WorldShape]) -> bool:
-    """Inside the world box [lo, hi] and overlapping none of ``others``."""
-    inside = all(bool(np.all((p >= lo) & (p <= hi))) for p in shape.polys)
-    return inside and not any(overlaps(shape, s) for s in others)
