@@ -1,5 +1,6 @@
 # KinDER: the two commands are `make demo` (the main job) and `make test` (lint, types, tests).
-# Both work on a fresh machine with only python3, pip and make: uv is bootstrapped if missing.
+# Both work on a fresh machine with only python3, pip and make: uv is bootstrapped if missing, and
+# `make test` installs the Debian and npm packages the tests need (tools/install_system_deps.sh).
 SHELL := /bin/bash
 .DEFAULT_GOAL := help
 PACKAGES := kinder-core kinder-garden2d kinder-garden3d kinder-gym kinder-bench
@@ -13,14 +14,18 @@ PYTEST_ARGS ?=
 help:  ## List the targets.
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
 
+# Debian's own python3 is "externally managed" (PEP 668): pip then installs uv, a standalone tool,
+# into the user's site only with --break-system-packages.
 bootstrap:  ## Install uv if it is missing (pip, then pip --user).
 	@command -v uv >/dev/null 2>&1 || python3 -m uv --version >/dev/null 2>&1 || \
-	  python3 -m pip install --quiet uv || python3 -m pip install --quiet --user uv
+	  python3 -m pip install --quiet uv 2>/dev/null || \
+	  python3 -m pip install --quiet --user uv 2>/dev/null || \
+	  python3 -m pip install --quiet --user --break-system-packages uv
 
 sync: bootstrap  ## Create .venv from uv.lock: all packages with every extra (torch, SB3, lerobot).
 	$(UV) sync --locked --all-packages --all-extras
 
-system-deps:  ## Debian packages (ffmpeg, chromium) and npm packages the tests need.
+system-deps:  ## Debian packages (ffmpeg, chromium, nodejs, npm) and npm packages the tests need.
 	bash tools/install_system_deps.sh
 
 demo: sync  ## The main job: BP, MPC and random on 2D and 3D envs; table, GIFs, HTML report.
@@ -33,7 +38,7 @@ lint: sync  ## ruff lint and format check.
 typecheck: sync  ## mypy --strict on every package's src.
 	$(UV) run --no-sync mypy
 
-test: lint typecheck  ## Lint, type-check and every package's fast tests.
+test: system-deps lint typecheck  ## System packages, lint, type-check and every package's fast tests.
 	@set -e; for p in $(PACKAGES); do \
 	  echo "== $$p"; \
 	  (cd packages/$$p && $(UV) run --no-sync pytest -q $(PYTEST_ARGS) tests; rc=$$?; \
