@@ -17,7 +17,7 @@ import pytest
 
 ROOT_CONFTEST = Path(__file__).resolve().parents[3] / "conftest.py"
 
-SAMPLE = '''
+SAMPLE = """
 import pytest
 
 def test_runs():
@@ -37,7 +37,7 @@ def test_by_design():
 @pytest.mark.xfail(reason="a known failure")
 def test_xfail():
     assert False
-'''
+"""
 
 
 def _run(tmp_path: Path, ci: str | None) -> dict[str, int]:
