@@ -31,9 +31,10 @@ system-deps:  ## Debian packages (ffmpeg, chromium, nodejs, npm) and npm package
 demo: sync  ## The main job: BP, MPC and random on 2D and 3D envs; table, GIFs, HTML report.
 	$(UV) run --no-sync kinder demo
 
-lint: sync  ## ruff lint and format check.
+lint: sync  ## ruff lint and format check; the import-layering contracts (pyproject.toml).
 	$(UV) run --no-sync ruff check .
 	$(UV) run --no-sync ruff format --check .
+	$(UV) run --no-sync lint-imports
 
 typecheck: sync  ## mypy --strict on every package's src.
 	$(UV) run --no-sync mypy
