@@ -73,7 +73,7 @@ def move_ee(
     joint deltas within the action bound.
     """
     env.set_state(state)
-    start, _ = env.ee_pose(state)
+    start, _ = env.pinch_pose(state)
     goal = np.asarray(ee_pos, dtype=float)
     n_way = max(1, int(np.ceil(np.linalg.norm(goal - start) / cartesian_step)))
     bound = env.config.max_action_mag

@@ -39,17 +39,19 @@ def test_base_move_into_the_table_is_reverted(table_env):
     assert moved.get(env.robot, "pos_base_x") == pytest.approx(0.1)
 
 
-def test_joint_moves_are_clipped_to_limits_and_continuous_joints_wrap(table_env):
-    env = table_env
-    state = env.get_state()
-    state[env.robot][4] = 2.2  # joint_2, limit 2.2497
+@pytest.mark.parametrize("wrap", [False, True])
+def test_joint_moves_are_clipped_to_limits_and_continuous_joints_wrap_only_if_asked(wrap):
+    env = Table3DEnv(num_cubes=1, config=Table3DConfig(wrap_joints=wrap))
+    state, _ = env.reset(seed=0)
+    state[env.robot][4] = -2.2  # joint_2 (arm tilted back, away from the table), limit 2.41
     state[env.robot][5] = 3.1  # joint_3, continuous
     env.set_state(state)
-    nxt, *_ = env.step(action(joints=np.array([0.0, 0.4, 0.4, 0.0, 0.0, 0.0, 0.0])))
-    if nxt != state:  # the move may collide; only check the bookkeeping when it happened
-        assert nxt.get(env.robot, "joint_2") == pytest.approx(2.2497)
-        assert -math.pi <= nxt.get(env.robot, "joint_3") < math.pi
-        assert nxt.get(env.robot, "joint_3") == pytest.approx(3.5 - 2 * math.pi)
+    nxt, *_ = env.step(action(joints=np.array([0.0, -0.4, 0.4, 0.0, 0.0, 0.0, 0.0])))
+    assert nxt != state, "the move was expected to be collision-free"
+    assert nxt.get(env.robot, "joint_2") == pytest.approx(-2.41)
+    expected = 3.5 - 2 * math.pi if wrap else 3.5
+    assert nxt.get(env.robot, "joint_3") == pytest.approx(expected)
+    env.close()
 
 
 def _swept_env(step):
@@ -58,7 +60,7 @@ def _swept_env(step):
     # Arm stretched forward and up; a floating cube sits on the arc the gripper sweeps when
     # the base turns by 0.4 rad, but clear of both endpoints.
     state = with_arm_at(env, state, np.array([0.6, 0.0, 0.65]))
-    ee, _ = env.ee_pose(state)
+    ee, _ = env.pinch_pose(state)
     radius, angle = math.hypot(ee[0], ee[1]), math.atan2(ee[1], ee[0])
     mid = angle + 0.2
     state[env.cubes[0]][:3] = (radius * math.cos(mid), radius * math.sin(mid), ee[2])
@@ -89,7 +91,9 @@ def test_grasp_succeeds_with_exactly_one_object_at_the_end_effector(table_env):
     assert held[env.cubes[0]][7] == 1.0 and held[env.cubes[1]][7] == 0.0
     # The fingers stopped on the 5 cm cube: opening ~ 5 cm, finger state ~ 0.33.
     assert 0.3 < held.get(env.robot, "finger_state") < 0.36
-    assert held.get(env.robot, "grasp_tf_z") == pytest.approx(0.01, abs=1e-3)  # along the approach
+    # The cube centre lies 1 cm past the pinch point, 2.5 cm past the tool frame (the grasp
+    # transform's frame) along the approach.
+    assert held.get(env.robot, "grasp_tf_z") == pytest.approx(0.035, abs=1e-3)
 
 
 def test_grasp_is_refused_with_no_object_at_the_end_effector(table_env):
@@ -140,7 +144,7 @@ def test_the_held_object_moves_with_the_gripper(table_env):
     env.set_state(state)
     state, *_ = env.step(CLOSE)
     lifted = move_ee(env, state, np.array([0.5, -0.1, 0.6]))
-    ee, _ = env.ee_pose(lifted)
+    ee, _ = env.pinch_pose(lifted)
     assert np.allclose(lifted[env.cubes[0]][:3], ee + np.array([0.0, 0.0, -0.01]), atol=2e-3)
 
 

@@ -1,20 +1,32 @@
 """Shared mechanics of the Kinematic3D families ("teleport and check", environments.md §4.1).
 
-One step of every family:
+The defaults follow upstream kindergarden 0.2.5's pybullet environments. One step:
 
-1. The 10 motion deltas are added to the base pose and joints; the base is clipped to the world
-   bounds and the limited joints to their limits.
+1. The 10 motion deltas (clipped to ±``max_action_mag``) are added to the base pose and joints;
+   the base is clipped to the world bounds, the yaw wrapped to [−π, π) and the limited joints
+   clipped to ``arm_joint_limits`` (the Kinova URDF's). Continuous joints are not wrapped
+   unless ``wrap_joints`` is set.
 2. The motion is swept in ``ceil(max|Δ| / max_collision_check_step)`` increments (only the
-   endpoint when the step is ``None``). At each increment the robot, the held object and nothing
-   else is moved and checked against the collision set (every collidable object except the held
-   object and, for a held container, the objects inside it). Any penetration deeper than
-   ``collision_tolerance`` reverts the whole motion.
-3. The gripper command runs: close → grasp when exactly one movable object touches the
-   end-effector marker; open → release when a surface supports the held object within
-   ``min_placement_dist``, otherwise keep holding.
+   endpoint when the step is ``None``). At each increment the robot, the held object and what a
+   held container carries are moved; the motion is reverted when the arm touches itself
+   (``check_self_collisions``), the arm (and, with ``check_base_collisions``, the base chassis)
+   or the held object comes within ``collision_distance`` of a collidable object other than the
+   held object and its contents.
+3. The gripper command runs: close → grasp when exactly one movable object is within
+   ``collision_distance`` of the grasp marker (a 2 × 2 × 7 cm box at the tool frame), closing
+   the fingers until they touch it; open → release when the held object is within
+   ``min_placement_dist`` of a surface, otherwise keep holding. Opening with nothing held does
+   nothing.
 
-A held container (all half extents > 0.04) carries every movable object whose centre lies inside
-it. Reward −1 per step; ``terminated`` when the goal holds.
+A held container (all half extents > 0.04) carries every movable object whose centre lies
+strictly inside its half extents along the world axes. Reward −1 per step; ``terminated`` when
+the goal holds. The end-effector pose (``ee_pose``) and the grasp transform features are in the
+tool frame (see :data:`kinder_garden3d.kinematic3d.scene.TOOL_OFFSET`); with nothing held the
+seven grasp-transform features are 0.
+
+Kept deviations from upstream (bugs there): a held surface object (Transport3D's box) is never
+its own support, so it cannot be released in mid-air; BaseMotion3D's target keeps its height
+when a state is loaded.
 """
 
 from __future__ import annotations
@@ -34,7 +46,6 @@ from kinder_garden3d.kinematic3d.geometry import (
     cuboid_parts,
     invert,
     normalize_quat,
-    quat_to_matrix,
     triangle_parts,
 )
 from kinder_garden3d.kinematic3d.object_types import (
@@ -47,7 +58,7 @@ from kinder_garden3d.kinematic3d.object_types import (
     robot_action_space,
 )
 from kinder_garden3d.kinematic3d.scene import BodySpec, PyBulletScene
-from kinder_garden3d.robot.description import FINGER_STATE_MAX, RETRACT, robot_description
+from kinder_garden3d.robot.description import FINGER_STATE_MAX, RETRACT
 
 Array = NDArray[np.float64]
 Rgba = tuple[float, float, float, float]
@@ -65,7 +76,12 @@ _CONFIG = slice(0, 10)
 _FINGER = 10
 _GRASP = 11
 _TF = slice(12, 19)
-_NO_GRASP_TF = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+#: Upstream writes all seven grasp-transform features as 0 while nothing is held.
+_NO_GRASP_TF = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+#: Limits of the arm joints in the Kinova Gen3 URDF that upstream's pybullet robot loads (±rad;
+#: ``None`` = continuous). They are wider than the user guide's ranges that the shared robot
+#: model (and Dynamic3D) uses.
+KINOVA_URDF_JOINT_LIMITS: tuple[float | None, ...] = (None, 2.41, None, 2.66, None, 2.23, None)
 #: A held object with every half extent above this carries the objects inside it.
 CONTAINER_MIN_HALF_EXTENT = 0.04
 
@@ -82,9 +98,20 @@ class Kinematic3DConfig:
         home_base_pose: Initial (x, y, yaw) of the base.
         home_joints: Initial arm joints (the Kinova retract pose).
         world_bounds: (x_min, x_max, y_min, y_max) for the base position.
-        min_placement_dist: Largest gap (m) under a held object for a release to be accepted.
-        collision_tolerance: Penetration depth (m) below which touching is not a collision.
+        min_placement_dist: Largest distance (m) from a held object to a surface for a release to
+            be accepted (any direction, as upstream).
+        collision_distance: Bodies closer than this (m) collide in motion and grasp checks;
+            touching counts, as in upstream's pybullet_helpers (1e-6).
+        collision_tolerance: Penetration depth (m) beyond which :meth:`penetrations` reports a
+            pair (the validity test of initial states and of planners' configurations).
         finger_close_step: Finger-state increment while closing on an object.
+        arm_joint_limits: Symmetric limit of each arm joint (rad; ``None`` = continuous).
+        wrap_joints: Wrap the continuous arm joints into [−π, π) after each motion (upstream
+            leaves them unbounded; off by default).
+        check_base_collisions: Also check the base chassis against the objects (upstream does
+            only in BaseMotion3D).
+        check_self_collisions: Reject motions that bring non-neighbouring arm links (or the
+            fingers and the arm) into contact, as upstream does.
         max_reset_tries: Rejection-sampling budget of a reset before it raises.
         image_width, image_height: Size of rendered frames.
         camera_target, camera_distance, camera_yaw, camera_pitch: The overview orbit camera.
@@ -97,8 +124,13 @@ class Kinematic3DConfig:
     home_joints: tuple[float, ...] = RETRACT
     world_bounds: tuple[float, float, float, float] = (-10.0, 10.0, -10.0, 10.0)
     min_placement_dist: float = 0.005
+    collision_distance: float = 1e-6
     collision_tolerance: float = 1e-4
     finger_close_step: float = 0.01
+    arm_joint_limits: tuple[float | None, ...] = KINOVA_URDF_JOINT_LIMITS
+    wrap_joints: bool = False
+    check_base_collisions: bool = False
+    check_self_collisions: bool = True
     max_reset_tries: int = 1000
     image_width: int = 640
     image_height: int = 360
@@ -121,6 +153,8 @@ class Kinematic3DConfig:
                 f"world_bounds must be (x_min, x_max, y_min, y_max) with min < max, got "
                 f"{self.world_bounds}"
             )
+        if len(self.arm_joint_limits) != 7:
+            raise ValueError(f"arm_joint_limits needs 7 values, got {len(self.arm_joint_limits)}")
         if self.max_reset_tries < 1:
             raise ValueError(f"max_reset_tries must be >= 1, got {self.max_reset_tries}")
 
@@ -160,8 +194,9 @@ class Kinematic3DEnv(ObjectCentricEnv):
         self.robot = Object("robot", ROBOT_TYPE)
         self.action_space = robot_action_space(config.max_action_mag)
         self.observation_space = ObjectCentricStateSpace(ALL_TYPES)
-        desc = robot_description()
-        self._joint_low, self._joint_high = desc.arm_joint_limits
+        limits = [math.inf if v is None else float(v) for v in config.arm_joint_limits]
+        self._joint_high = np.array(limits)
+        self._joint_low = -self._joint_high
         self._continuous = ~np.isfinite(self._joint_low)
         self._scene = PyBulletScene(config.base_z)
         self._sync_cache = _SyncCache()
@@ -232,6 +267,8 @@ class Kinematic3DEnv(ObjectCentricEnv):
         for i in range(7):
             lo, hi = self._joint_low[i], self._joint_high[i]
             if not np.isfinite(lo):
+                if not self.config.wrap_joints:
+                    continue  # unbounded, as upstream
                 lo, hi = -math.pi, math.pi
             bounds[f"Kinematic3DRobot.joint_{i + 1}"] = (float(lo), float(hi))
         for q in ("qx", "qy", "qz", "qw"):
@@ -286,14 +323,14 @@ class Kinematic3DEnv(ObjectCentricEnv):
         half = f[9:12]
         if not np.all(half > CONTAINER_MIN_HALF_EXTENT):
             return []
-        rot = quat_to_matrix(f[3:7])
         inside = []
         for name in self.movable_names(state):
             obj = state.get_object_from_name(name)
             if obj == container:
                 continue
-            local = rot.T @ (state[obj][:3] - f[:3])
-            if np.all(np.abs(local) <= half):
+            # Upstream compares centres along the world axes (the container's own rotation is
+            # ignored), strictly inside the half extents.
+            if np.all(np.abs(state[obj][:3] - f[:3]) < half):
                 inside.append(obj)
         return inside
 
@@ -301,6 +338,12 @@ class Kinematic3DEnv(ObjectCentricEnv):
         """World pose (position, quaternion xyzw) of the end effector in ``state``."""
         self._sync(state)
         return self._scene.ee_pose()
+
+    def pinch_pose(self, state: ObjectCentricState) -> tuple[Array, Array]:
+        """World pose of the pinch point between the pads (the IK solver's ``pinch_site``;
+        ``TOOL_OFFSET`` − ``PINCH_OFFSET`` = −2.5 cm from the end effector along its z axis)."""
+        self._sync(state)
+        return self._scene.pinch_pose()
 
     def penetrations(self, state: ObjectCentricState) -> list[tuple[str, str]]:
         """Pairs of bodies that interpenetrate deeper than ``collision_tolerance`` in ``state``.
@@ -389,7 +432,7 @@ class Kinematic3DEnv(ObjectCentricEnv):
         self._sync(state)
         robot = state[self.robot]
         q0 = robot[_CONFIG].copy()
-        q1 = q0 + action[:10]
+        q1 = q0 + np.clip(action[:10], -cfg.max_action_mag, cfg.max_action_mag)
         x0, x1, y0, y1 = cfg.world_bounds
         q1[0] = min(max(q1[0], x0), x1)
         q1[1] = min(max(q1[1], y0), y1)
@@ -412,11 +455,9 @@ class Kinematic3DEnv(ObjectCentricEnv):
         if command < -0.5 and held is None:
             self._try_grasp(state)
             self._sync(state, force=True)  # closing moved the fingers in the scene
-        elif command > 0.5:
-            if held is not None:
-                self._try_release(state, held, carried)
-            elif robot[_FINGER] != 0.0:
-                robot[_FINGER] = 0.0
+        elif command > 0.5 and held is not None:
+            # Opening with nothing held changes nothing (as upstream).
+            self._try_release(state, held, carried)
             self._sync(state)
         return state
 
@@ -435,19 +476,22 @@ class Kinematic3DEnv(ObjectCentricEnv):
     ) -> bool:
         step = self.config.max_collision_check_step
         n = 1 if step is None else max(1, math.ceil(float(np.max(np.abs(q1 - q0))) / step))
-        scene, tol = self._scene, self.config.collision_tolerance
+        cfg, scene = self.config, self._scene
+        dist = cfg.collision_distance
         held_body = scene.body(held.name) if held is not None else -1
         # The endpoint first: a colliding endpoint (the common case) ends the check at once.
         for i in (n, *range(1, n)):
             scene.set_robot(q0 + (q1 - q0) * (i / n))
-            if scene.collides(scene.robot, obstacles, tol):
+            if cfg.check_self_collisions and scene.self_collides(dist):
+                return True
+            if scene.arm_near(obstacles, dist, include_base=cfg.check_base_collisions):
                 return True
             if held is not None:
                 pos, quat = self._held_world_pose(grasp_tf)
                 scene.set_pose(held.name, pos, quat)
-                if scene.collides(held_body, obstacles, tol) or self.extra_motion_collision(
-                    state, held, pos, quat
-                ):
+                if any(scene.near(held_body, b, dist) for b in obstacles):
+                    return True
+                if self.extra_motion_collision(state, held, pos, quat):
                     return True
         return False
 
@@ -462,7 +506,8 @@ class Kinematic3DEnv(ObjectCentricEnv):
         robot = state[self.robot]
         q = q1.copy()
         q[2] = _wrap(q[2])
-        q[3:10][self._continuous] = [_wrap(v) for v in q[3:10][self._continuous]]
+        if self.config.wrap_joints:
+            q[3:10][self._continuous] = [_wrap(v) for v in q[3:10][self._continuous]]
         robot[_CONFIG] = q
         if held is None:
             return
@@ -477,24 +522,34 @@ class Kinematic3DEnv(ObjectCentricEnv):
             state[obj][:3], state[obj][3:7] = p, normalize_quat(qq)
 
     def _try_grasp(self, state: ObjectCentricState) -> None:
+        """Grasp the one movable object within reach of the grasp marker, as upstream does.
+
+        The fingers close in ``finger_close_step`` increments until the arm or the fingers
+        touch the object (or the fingers are within one increment of closed); the grasp is
+        undone if the robot then collides with anything else (or with itself).
+        """
         scene, cfg = self._scene, self.config
+        dist = cfg.collision_distance
         robot = state[self.robot]
         scene.place_marker()
         movable = [state.get_object_from_name(n) for n in self.movable_names(state)]
-        touching = scene.marker_touching([scene.body(o.name) for o in movable])
+        touching = scene.marker_touching([scene.body(o.name) for o in movable], dist)
         if len(touching) != 1:
             return
         obj = next(o for o in movable if scene.body(o.name) == touching[0])
         body = touching[0]
         start = float(robot[_FINGER])
         s = start
-        while s < FINGER_STATE_MAX:
-            s = min(s + cfg.finger_close_step, FINGER_STATE_MAX)
-            scene.set_robot(robot[_CONFIG], s)
-            if scene.fingers_touch(body):
+        while not scene.arm_near([body], dist):
+            if s >= FINGER_STATE_MAX - cfg.finger_close_step:
                 break
+            s += cfg.finger_close_step
+            scene.set_robot(robot[_CONFIG], s)
         others = self._collidable(state, {obj.name})
-        if scene.fingers_collide(others, cfg.collision_tolerance):
+        # Upstream checks the arm (never the base) here.
+        if (cfg.check_self_collisions and scene.self_collides(dist)) or scene.arm_near(
+            others, dist
+        ):
             scene.set_robot(robot[_CONFIG], start)
             return
         ee_p, ee_q = scene.ee_pose()
@@ -507,9 +562,10 @@ class Kinematic3DEnv(ObjectCentricEnv):
     def _try_release(self, state: ObjectCentricState, held: Object, carried: list[Object]) -> None:
         scene, gap = self._scene, self.config.min_placement_dist
         body = scene.body(held.name)
-        skip = {held.name, *(o.name for o in carried)}
-        surfaces = [n for n in self.surface_names(state) if n not in skip]
-        if not any(scene.support_gap(body, scene.body(n), gap) < gap for n in surfaces):
+        # A held surface never supports itself (upstream's check lets a held box or block
+        # release anywhere because pybullet finds a body within any distance of itself).
+        surfaces = [n for n in self.surface_names(state) if n != held.name]
+        if not any(scene.near(body, scene.body(n), gap) for n in surfaces):
             return
         robot = state[self.robot]
         robot[_FINGER] = 0.0

@@ -32,6 +32,7 @@ class BaseMotion3DConfig(Kinematic3DConfig):
 
     target_xy_bounds: tuple[float, float] = (-2.0, 2.0)
     target_z: float = 0.2
+    check_base_collisions: bool = True
     goal_tolerance: float = 0.05
     camera_target: tuple[float, float, float] = (0.0, 0.0, 0.0)
     camera_distance: float = 5.0
@@ -111,7 +112,9 @@ class BaseMotion3DEnv(Kinematic3DEnv):
         cfg = self.config
         robot = self.robot_features()
         for _ in range(cfg.max_reset_tries):
-            xy = rng.uniform(*cfg.target_xy_bounds, size=2)
+            # Upstream draws (x, y, yaw) per try; the yaw of a sphere is not observed.
+            lo, hi = cfg.target_xy_bounds
+            xy = rng.uniform((lo, lo, -math.pi), (hi, hi, math.pi))[:2]
             state = ObjectCentricState.from_features(
                 {self.robot: robot, self.target: [xy[0], xy[1], cfg.target_z]}
             )

@@ -202,3 +202,11 @@ def rects_overlap_2d(c1: Xy, h1: Xy, c2: Xy, h2: Xy, margin: float = 0.0) -> boo
     return (
         abs(c1[0] - c2[0]) < h1[0] + h2[0] + margin and abs(c1[1] - c2[1]) < h1[1] + h2[1] + margin
     )
+
+
+def rect_distance_2d(c1: Xy, h1: Xy, c2: Xy, h2: Xy) -> float:
+    """Distance between two axis-aligned rectangles (centre, half extents); 0 when they
+    overlap. Two upright boxes whose heights overlap are this far apart in 3D."""
+    dx = max(abs(c1[0] - c2[0]) - h1[0] - h2[0], 0.0)
+    dy = max(abs(c1[1] - c2[1]) - h1[1] - h2[1], 0.0)
+    return math.hypot(dx, dy)

@@ -36,6 +36,27 @@ Rgba = tuple[float, float, float, float]
 
 #: Half extents of the invisible grasp-detection box at the end effector (z = approach axis).
 MARKER_HALF = (0.01, 0.01, 0.035)
+#: The end-effector ("tool") frame sits this far out of the Gen3 flange along the approach axis,
+#: with the flange's orientation: the ``tool_frame`` of the Kinova URDF that upstream's
+#: pybullet robot uses (its gripper, like ours, is mounted a quarter turn about the approach axis,
+#: so the tool frame's x axis is the gripper's closing direction).
+TOOL_OFFSET = 0.12
+#: Quarter turn about z from the gripper frame back to the flange frame (x, y, z, w).
+_GRIPPER_TO_FLANGE = (0.0, 0.0, -math.sqrt(0.5), math.sqrt(0.5))
+#: Arm links checked against each other for self-collisions, in chain order, and the finger links
+#: checked against all but the last two of them. Neighbours in the chain are not checked (they
+#: touch at their joint); this is the pair list of upstream's Gen3 + 2F-85 pybullet robot, mapped
+#: onto this model's links (upstream's list skips spherical_wrist_2 and the gripper housing).
+SELF_COLLISION_ARM = (
+    "shoulder_link",
+    "half_arm_1_link",
+    "half_arm_2_link",
+    "forearm_link",
+    "spherical_wrist_1_link",
+    "bracelet_link",
+    "gripper_base_link",
+)
+SELF_COLLISION_FINGERS = ("left_finger_link", "right_finger_link")
 _HULL_MARGIN = 0.001
 
 
@@ -96,6 +117,7 @@ class PyBulletScene:
         self._arm_idx: list[int] = []
         self._finger_idx: list[int] = []
         self._finger_links: list[int] = []
+        self._self_pairs: list[tuple[int, int]] = []
         self._link_idx: dict[str, int] = {}
         #: Incremented on every (re)connection, so callers can tell a fresh client apart.
         self.generation = 0
@@ -131,6 +153,10 @@ class PyBulletScene:
             if joint_name in self._desc.finger_joint_names:
                 self._finger_idx.append(i)
         self._finger_links = list(self._finger_idx)
+        arm = SELF_COLLISION_ARM
+        pairs = [(arm[i], arm[j]) for i in range(len(arm)) for j in range(i + 2, len(arm))]
+        pairs += [(a, f) for a in arm[:-2] for f in SELF_COLLISION_FINGERS]
+        self._self_pairs = [(self._link_idx[a], self._link_idx[b]) for a, b in pairs]
         marker_shape = pb.createCollisionShape(
             pb.GEOM_BOX, halfExtents=list(MARKER_HALF), physicsClientId=cid
         )
@@ -266,7 +292,8 @@ class PyBulletScene:
             )
 
     def ee_pose(self) -> tuple[Array, Array]:
-        """World pose of the end effector (the pinch point; z = approach, y = closing)."""
+        """World pose of the end effector: the tool frame (see :data:`TOOL_OFFSET`; z =
+        approach, x = closing direction)."""
         state = pb.getLinkState(
             self.robot,
             self._link_idx["gripper_base_link"],
@@ -274,6 +301,14 @@ class PyBulletScene:
             physicsClientId=self.client,
         )
         pos, quat = np.array(state[4]), np.array(state[5])
+        _, flange_q = pb.multiplyTransforms(
+            [0.0, 0.0, 0.0], quat.tolist(), [0.0, 0.0, 0.0], list(_GRIPPER_TO_FLANGE)
+        )
+        return pos + quat_to_matrix(quat)[:, 2] * TOOL_OFFSET, np.array(flange_q)
+
+    def pinch_pose(self) -> tuple[Array, Array]:
+        """World pose of the pinch point between the pads (z = approach, y = closing)."""
+        pos, quat = self.link_pose("gripper_base_link")
         return pos + quat_to_matrix(quat)[:, 2] * PINCH_OFFSET, quat
 
     def place_marker(self) -> None:
@@ -313,26 +348,36 @@ class PyBulletScene:
                 return True
         return False
 
-    def marker_touching(self, bodies: list[int]) -> list[int]:
-        """The bodies that touch the grasp marker."""
+    def marker_touching(self, bodies: list[int], distance: float) -> list[int]:
+        """The bodies within ``distance`` of the grasp marker."""
         cid = self.client
-        return [b for b in bodies if pb.getClosestPoints(self.marker, b, 0.0, physicsClientId=cid)]
+        return [
+            b for b in bodies if pb.getClosestPoints(self.marker, b, distance, physicsClientId=cid)
+        ]
 
-    def fingers_touch(self, body: int) -> bool:
-        """Whether either finger link touches ``body``."""
-        cid = self.client
-        return any(
-            pb.getClosestPoints(self.robot, body, 0.0, linkIndexA=link, physicsClientId=cid)
-            for link in self._finger_links
-        )
+    def near(self, body_a: int, body_b: int, distance: float) -> bool:
+        """Whether two bodies come within ``distance`` of each other (touching included)."""
+        return bool(pb.getClosestPoints(body_a, body_b, distance, physicsClientId=self.client))
 
-    def fingers_collide(self, bodies: list[int], tolerance: float) -> bool:
-        """Whether a finger link penetrates any of ``bodies`` deeper than ``tolerance``."""
+    def arm_near(self, bodies: list[int], distance: float, include_base: bool = False) -> bool:
+        """Whether a robot link comes within ``distance`` of any of ``bodies``; the base chassis
+        (pybullet's root link, index −1) counts only with ``include_base``."""
         cid = self.client
+        for b in bodies:
+            pts = pb.getClosestPoints(self.robot, b, distance, physicsClientId=cid)
+            if any(include_base or p[3] != -1 for p in pts):
+                return True
+        return False
+
+    def self_collides(self, distance: float) -> bool:
+        """Whether any checked pair of robot links (see :data:`SELF_COLLISION_ARM`) comes within
+        ``distance`` of each other."""
+        cid, robot = self.client, self.robot
         return any(
-            pb.getClosestPoints(self.robot, b, -tolerance, linkIndexA=link, physicsClientId=cid)
-            for link in self._finger_links
-            for b in bodies
+            pb.getClosestPoints(
+                robot, robot, distance, linkIndexA=a, linkIndexB=b, physicsClientId=cid
+            )
+            for a, b in self._self_pairs
         )
 
     def support_gap(self, body: int, surface: int, max_gap: float) -> float:

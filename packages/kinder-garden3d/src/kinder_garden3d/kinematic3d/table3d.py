@@ -16,7 +16,7 @@ from kinder_garden3d.kinematic3d.base_env import (
     Kinematic3DEnv,
     Rgba,
 )
-from kinder_garden3d.kinematic3d.geometry import Part, rects_overlap_2d
+from kinder_garden3d.kinematic3d.geometry import Part, rect_distance_2d
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE
 from kinder_garden3d.kinematic3d.scene import BodySpec
 
@@ -31,23 +31,24 @@ class Table3DConfig(Kinematic3DConfig):
         table_pos, table_half: The (observed) table's centre and half extents.
         cube_half: Half edge of the cubes.
         lift_height: How far above the table top a held cube's centre must be.
-        placement_margin: Clearance kept between sampled cubes.
+        floor_collides: Make the floor a collision object and a surface (upstream's Table3D has
+            neither: its floor is only drawn; off by default).
     """
 
-    world_bounds: tuple[float, float, float, float] = (-1.0, 1.0, -1.0, 1.0)
     table_pos: Vec3 = (0.6, 0.0, 0.2)
     table_half: Vec3 = (0.2, 0.4, 0.2)
     cube_half: float = 0.025
     lift_height: float = 0.1
-    placement_margin: float = 0.01
+    floor_collides: bool = False
     camera_target: tuple[float, float, float] = (0.35, 0.0, 0.3)
     camera_distance: float = 1.8
     camera_pitch: float = -35.0
 
 
 def floor_body() -> ConstantBody:
-    """The floor: a thin box whose top face is z = 0 (a surface and a collision object)."""
-    return ConstantBody(BodySpec((Part("box", (3.0, 3.0, 0.01)),), FLOOR), (0.0, 0.0, -0.01))
+    """Upstream's floor object: a 6 × 6 × 0.01 m box centred at z = −0.01, so its top face is
+    at z = −0.005, 5 mm below the objects standing at z = 0 (a surface and a collision object)."""
+    return ConstantBody(BodySpec((Part("box", (3.0, 3.0, 0.005)),), FLOOR), (0.0, 0.0, -0.01))
 
 
 class Table3DEnv(Kinematic3DEnv):
@@ -117,13 +118,17 @@ class Table3DEnv(Kinematic3DEnv):
         self.config: Table3DConfig
 
     def constant_bodies(self) -> dict[str, ConstantBody]:
-        return {"floor": floor_body()}
+        if self.config.floor_collides:
+            return {"floor": floor_body()}
+        floor = floor_body()
+        visual = BodySpec(floor.spec.parts, floor.spec.rgba, collide=False)
+        return {"floor": ConstantBody(visual, floor.pos, surface=False)}
 
     def movable_names(self, state: ObjectCentricState) -> list[str]:
         return [c.name for c in self.cubes]
 
     def surface_names(self, state: ObjectCentricState) -> list[str]:
-        return ["floor", self.table.name]
+        return [*super().surface_names(state), self.table.name]
 
     def object_color(self, obj: Object) -> Rgba:
         return WOOD if obj == self.table else PURPLE
@@ -137,23 +142,17 @@ class Table3DEnv(Kinematic3DEnv):
         thx, thy, thz = cfg.table_half
         h = cfg.cube_half
         top = tz + thz
+        low, high = (tx - thx + h, ty - thy + h, top + h), (tx + thx - h, ty + thy - h, top + h)
         for _ in range(cfg.max_reset_tries):
-            centres: list[tuple[float, float]] = []
-            for _cube in self.cubes:
-                for _try in range(100):
-                    xy = (
-                        float(rng.uniform(tx - thx + h, tx + thx - h)),
-                        float(rng.uniform(ty - thy + h, ty + thy - h)),
-                    )
-                    if not any(
-                        rects_overlap_2d(xy, (h, h), c, (h, h), cfg.placement_margin)
-                        for c in centres
-                    ):
-                        centres.append(xy)
-                        break
-                else:
-                    break
-            if len(centres) != len(self.cubes):
+            # Upstream's order of draws: every cube, then the pairwise check (touching cubes,
+            # within collision_distance, are rejected).
+            draws = [rng.uniform(low, high) for _ in self.cubes]
+            centres = [(float(d[0]), float(d[1])) for d in draws]
+            if any(
+                rect_distance_2d(a, (h, h), b, (h, h)) <= cfg.collision_distance
+                for i, a in enumerate(centres)
+                for b in centres[i + 1 :]
+            ):
                 continue
             features = {
                 self.robot: self.robot_features(),

@@ -16,7 +16,7 @@ from kinder_garden3d.kinematic3d.base_env import (
     Kinematic3DEnv,
     Rgba,
 )
-from kinder_garden3d.kinematic3d.geometry import rects_overlap_2d
+from kinder_garden3d.kinematic3d.geometry import Part, Xy, cuboid_parts, rect_distance_2d
 from kinder_garden3d.kinematic3d.object_types import CONTAINER, CUBOID_TYPE
 from kinder_garden3d.kinematic3d.table3d import floor_body
 
@@ -32,22 +32,26 @@ class Transport3DConfig(Kinematic3DConfig):
         box_half: Outer half extents of the open-top box (walls 0.01 m).
         cube_half: Half edge of the cubes.
         floor_region: (x_min, x_max, y_min, y_max) where the box and cubes start.
-        robot_clearance: Half size of the square around the base kept free of objects.
-        placement_margin: Clearance kept between sampled objects and from the table.
+        robot_footprint_half: Half extents (x, y) of the base's collision box in upstream's
+            robot (0.548 × 0.508 m), which sampled objects may not touch.
+        cube_box_preference: A cube is kept only when its footprint is closer to the box's than
+            to the table's by more than this (upstream's rule, which puts cubes near the box).
+        max_sampling_attempts: Draws per object before a reset gives up.
         goal_min_z: Smallest centre height of every cube and box at the goal.
         goal_ee_clearance: Smallest end-effector distance to every cube and box at the goal.
         goal_max_finger: Largest finger state (open gripper) at the goal.
     """
 
     max_action_mag: float = 0.2
-    world_bounds: tuple[float, float, float, float] = (-1.0, 1.0, -1.0, 1.0)
+    min_placement_dist: float = 0.01
     table_pos: Vec3 = (0.6, 0.0, 0.2)
     table_half: Vec3 = (0.2, 0.4, 0.2)
     box_half: Vec3 = (0.1, 0.15, 0.1)
     cube_half: float = 0.025
-    floor_region: tuple[float, float, float, float] = (-0.8, 0.8, -0.8, 0.8)
-    robot_clearance: float = 0.3
-    placement_margin: float = 0.05
+    floor_region: tuple[float, float, float, float] = (-1.5, 1.5, -1.5, 1.5)
+    robot_footprint_half: tuple[float, float] = (0.274, 0.254)
+    cube_box_preference: float = 0.05
+    max_sampling_attempts: int = 100_000
     goal_min_z: float = 0.3
     goal_ee_clearance: float = 0.2
     goal_max_finger: float = 0.01
@@ -146,47 +150,68 @@ class Transport3DEnv(Kinematic3DEnv):
     def box_objects(self) -> list[Object]:
         return [self.robot, self.table, self.box, *sorted(self.cubes)]
 
+    def object_parts(self, state: ObjectCentricState, obj: Object) -> list[Part]:
+        # The box is open-topped whatever its object_type feature says (upstream writes −1 for
+        # every cuboid, the box included).
+        if obj == self.box:
+            return cuboid_parts(CONTAINER, state[obj][9:12])
+        return super().object_parts(state, obj)
+
     def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
+        """Upstream's sampler, draw for draw: the box, then each cube, uniform over
+        ``floor_region`` (centres; x, y and a constant z per draw), rejecting a draw that comes
+        within ``collision_distance`` of the base's footprint, the table or an object placed
+        before; a cube must also lie nearer the box than the table (``cube_box_preference``)."""
         cfg = self.config
         x0, x1, y0, y1 = cfg.floor_region
         table_c = (cfg.table_pos[0], cfg.table_pos[1])
         table_h = (cfg.table_half[0], cfg.table_half[1])
-        robot_h = (cfg.robot_clearance, cfg.robot_clearance)
-        robot_c = (cfg.home_base_pose[0], cfg.home_base_pose[1])
-        sizes = [cfg.box_half] + [(cfg.cube_half,) * 3] * self.num_cubes
-        for _ in range(cfg.max_reset_tries):
-            placed: list[tuple[tuple[float, float], tuple[float, float]]] = []
-            m = cfg.placement_margin
-            for half in sizes:
-                h2 = (half[0], half[1])
-                for _try in range(100):
-                    xy = (
-                        float(rng.uniform(x0 + half[0], x1 - half[0])),
-                        float(rng.uniform(y0 + half[1], y1 - half[1])),
-                    )
-                    if not (
-                        rects_overlap_2d(xy, h2, table_c, table_h, m)
-                        or rects_overlap_2d(xy, h2, robot_c, robot_h)
-                        or any(rects_overlap_2d(xy, h2, c, h, m) for c, h in placed)
-                    ):
-                        placed.append((xy, h2))
-                        break
-                else:
-                    break
-            if len(placed) != len(sizes):
-                continue
-            (bx, by), _ = placed[0]
-            bh = cfg.box_half
-            features = {
-                self.robot: self.robot_features(),
-                self.table: self.cuboid_features(cfg.table_pos, cfg.table_half),
-                self.box: self.cuboid_features((bx, by, bh[2]), bh, object_type=CONTAINER),
-            }
-            h = cfg.cube_half
-            for cube, ((x, y), _) in zip(self.cubes, placed[1:], strict=True):
-                features[cube] = self.cuboid_features((x, y, h), (h, h, h))
-            return ObjectCentricState.from_features(features)
-        raise self._reset_error("collision-free floor positions for the box and cubes")
+        base_c = (cfg.home_base_pose[0], cfg.home_base_pose[1])
+        obstacles = [(base_c, cfg.robot_footprint_half), (table_c, table_h)]
+        bh, h = cfg.box_half, cfg.cube_half
+        box_xy = self._draw(rng, (x0, y0, bh[2]), (x1, y1, bh[2]), (bh[0], bh[1]), obstacles)
+        box_h = (bh[0], bh[1])
+        obstacles.append((box_xy, box_h))
+        cubes: list[tuple[float, float]] = []
+        for _cube in self.cubes:
+            xy = self._draw(
+                rng, (x0, y0, h), (x1, y1, h), (h, h), obstacles, (box_xy, box_h, table_c, table_h)
+            )
+            obstacles.append((xy, (h, h)))
+            cubes.append(xy)
+        features = {
+            self.robot: self.robot_features(),
+            self.table: self.cuboid_features(cfg.table_pos, cfg.table_half),
+            self.box: self.cuboid_features((*box_xy, bh[2]), bh),
+        }
+        for cube, xy in zip(self.cubes, cubes, strict=True):
+            features[cube] = self.cuboid_features((*xy, h), (h, h, h))
+        return ObjectCentricState.from_features(features)
+
+    def _draw(
+        self,
+        rng: np.random.Generator,
+        low: Vec3,
+        high: Vec3,
+        half: tuple[float, float],
+        obstacles: list[tuple[tuple[float, float], tuple[float, float]]],
+        near_box: tuple[Xy, Xy, Xy, Xy] | None = None,
+    ) -> tuple[float, float]:
+        cfg = self.config
+        for _ in range(cfg.max_sampling_attempts):
+            x, y, _z = (float(v) for v in rng.uniform(low, high))
+            if near_box is not None:
+                box_c, box_h, table_c, table_h = near_box
+                to_box = rect_distance_2d((x, y), (0.0, 0.0), box_c, box_h)
+                to_table = rect_distance_2d((x, y), (0.0, 0.0), table_c, table_h)
+                if to_box >= to_table + cfg.cube_box_preference:
+                    continue
+            if all(
+                rect_distance_2d((x, y), half, c, oh) > cfg.collision_distance
+                for c, oh in obstacles
+            ):
+                return x, y
+        raise self._reset_error("a collision-free floor position")
 
     def goal_reached(self, state: ObjectCentricState) -> bool:
         cfg = self.config
