@@ -19,13 +19,23 @@ from kinder_bench.metrics import Stat
 from kinder_bench.paper import (
     METRICS,
     NOT_IN_RUNS,
+    NOT_RUN,
+    PAPER,
+    VARIANTS_ONLY,
+    Result,
+    at_paper_protocol,
     compare,
     load_paper,
+    load_settings,
     paper_markdown,
+    paper_settings,
     parse_paper,
+    parse_settings,
+    protocol_deviations,
     results_from_csv,
+    variant_name,
 )
-from kinder_bench.protocol import PAPER_ENVS
+from kinder_bench.protocol import PAPER_ENVS, PAPER_MAX_STEPS, PAPER_SEEDS
 from kinder_bench.report import write_report
 from kinder_bench.runner import RunConfig, run_benchmark
 
@@ -131,31 +141,54 @@ def test_paper_report_on_a_fixture_run(fixture_run: Path, tmp_path: Path) -> Non
     md, paths = write_report([fixture_run], tmp_path, paper=True)
     assert paths["paper_table"].read_text() == md
     lines = md.splitlines()
-    header = next(line for line in lines if line.startswith("| Env |"))
+    # The counts come first: nothing here is at the paper's protocol (2 seeds × 1 episode).
+    assert lines[0] == "| The paper's 13 × 8 cells | count |"
+    assert "| at the paper's protocol | 0 |" in lines
+    assert "| variants only (listed under the table) | 1 |" in lines
+    assert "| total | 104 |" in lines
+    header = next(line for line in lines if line.startswith("| Env | Metric |"))
     assert "BP (bilevel_planning)" in header and "SAC (sac)" in header
-    assert "| random |" in header  # an agent absent from the paper gets its own column
-    assert "CrashingAgent" in header
+    assert "random" not in header and "Crashing" not in header  # only the paper's columns
     sr = next(line for line in lines if line.startswith("| Motion2D-p0 | SR"))
     cells = [c.strip() for c in sr.split("|")[3:-1]]
-    assert cells[0] == "**1.00 ± 0.000** (1.00 ± 0.000)"  # BP: ours (paper)
+    assert cells[0] == "var. (1.00 ± 0.000)"  # BP ran, but not at the paper's protocol
     assert cells[5].startswith("n/r [") and cells[5].endswith("(0.92 ± 0.050)")  # MPC
-    assert cells[13] == "0.00 ± 0.000"  # random: no paper value
-    assert cells[14] == "0.00"  # the crashing agent, one seed: no std
     assert NOT_IN_RUNS in md  # MPC can run here but is not in the runs
     for agent in ("llm_con", "dp", "ppo", "sac"):  # whatever these say when not run, it is there
         assert (unavailable_reason(agent, MOTION) or NOT_IN_RUNS) in md
-    # Every paper cell appears once in the CSV, with ours or a reason.
+    # Every run is a variant row, named by what differs from the paper's protocol.
+    rows_md = [line for line in lines if line.startswith("| Motion2D-p0 | ") and "·" in line]
+    names = [line.split("|")[2].strip() for line in rows_md]
+    assert names[0].startswith("BP · 2×1, ") and "refinement_rounds=3" in names[0]
+    assert "random · 2×1, 8 steps" in names
+    assert any(n.startswith("kinder_bench_toy:CrashingAgent · 1×1") for n in names)
+    # Every paper cell appears once in the CSV, with its status; a reason only when not run.
     rows = list(csv.DictReader(io.StringIO(paths["paper_csv"].read_text())))
-    paper_rows = [r for r in rows if r["paper_method"]]
-    keys = {(r["env_id"], r["paper_method"], r["metric"]) for r in paper_rows}
-    assert len(paper_rows) == len(keys)
-    assert len(paper_rows) == 8 * 13 * 3
-    for r in paper_rows:
-        assert (r["ours_seeds"] != "") != bool(r["not_run_reason"])
+    keys = {(r["env_id"], r["paper_method"], r["metric"]) for r in rows}
+    assert len(rows) == len(keys) == 8 * 13 * 3
+    for r in rows:
+        assert r["status"] in (PAPER, VARIANTS_ONLY, NOT_RUN)
+        assert bool(r["not_run_reason"]) == (r["status"] == NOT_RUN)
+        assert (r["ours_seeds"] != "") == (r["status"] == PAPER)
+        assert bool(r["variants"]) == (r["status"] == VARIANTS_ONLY)
     summary = list(csv.DictReader(io.StringIO(paths["csv"].read_text())))
     crash = next(r for r in summary if "Crashing" in r["agent"])
-    assert crash["errors"] == "1" and crash["sr_mean"] == "0.0"
+    assert crash["errors"] == "1" and crash["sr_mean"] == "0.0" and crash["seeds"] == "0"
     assert {r["command"] for r in summary} == {"kinder bench run (test fixture)"}
+    bp = next(r for r in summary if r["agent"] == "bilevel_planning")
+    assert bp["seeds"] == "0 1" and json.loads(bp["agent_args"])["refinement_rounds"] == 3
+
+
+def test_the_runner_writes_the_summary_rows_into_the_run_directory(fixture_run: Path) -> None:
+    """A run directory keeps its summary rows, so a committed copy needs no report run."""
+    rows = list(csv.DictReader(io.StringIO((fixture_run / "summary.csv").read_text())))
+    assert {r["agent"] for r in rows} == {
+        "bilevel_planning",
+        "random",
+        "kinder_bench_toy:CrashingAgent",
+    }
+    assert all(r["command"] == "kinder bench run (test fixture)" for r in rows)
+    assert {r["seeds"] for r in rows} == {"0 1", "0"}
 
 
 def test_results_from_committed_csv_round_trip(fixture_run: Path, tmp_path: Path) -> None:
@@ -166,12 +199,102 @@ def test_results_from_committed_csv_round_trip(fixture_run: Path, tmp_path: Path
         "random",
         "kinder_bench_toy:CrashingAgent",
     }
+    bp = next(r for r in results if r.agent == "bilevel_planning")
+    assert bp.seeds == (0, 1) and bp.max_steps == 200 and bp.agent_args is not None
     md = paper_markdown(compare(results))
-    assert "**1.00 ± 0.000** (1.00 ± 0.000)" in md
+    assert "var. (1.00 ± 0.000)" in md
     bad = tmp_path / "bad.csv"
     bad.write_text("env_id,method\nx,y\n")
     with pytest.raises(ValueError, match="not a summary row"):
         results_from_csv(bad)
+
+
+def _at_protocol(result: Result) -> Result:
+    """``result`` as if run at the paper's protocol: seeds 0–4 × 50, the paper's budget and the
+    agent's paper settings over its defaults."""
+    args = {**(result.agent_args or {})}
+    args.update(
+        {
+            k: v
+            for k, v in paper_settings(result.agent, result.env_id).items()
+            if k not in ("max_steps", "training")
+        }
+    )
+    return dataclasses.replace(
+        result,
+        seeds=PAPER_SEEDS,
+        num_seeds=5,
+        episodes=250,
+        max_steps=PAPER_MAX_STEPS[result.env_id],
+        agent_args=args,
+    )
+
+
+def test_only_a_run_at_the_papers_protocol_fills_a_cell(fixture_run: Path, tmp_path: Path) -> None:
+    _, paths = write_report([fixture_run], tmp_path)
+    results = results_from_csv(paths["csv"])
+    bp = _at_protocol(next(r for r in results if r.agent == "bilevel_planning"))
+    assert protocol_deviations(bp) == () and at_paper_protocol(bp)
+    comparison = compare([bp])
+    (cell,) = [c for c in comparison.paper_cells() if c.env_id == MOTION and c.ours is not None]
+    assert cell.column.paper_method == "BP" and cell.status == PAPER
+    # Each recorded difference makes a variant, named by what differs.
+    cases = {
+        "5×10": {"episodes": 50},
+        "seeds 5 6 7 8 9": {"seeds": (5, 6, 7, 8, 9)},
+        "seeds not recorded": {"seeds": None},
+        "100 steps": {"max_steps": 100},
+        "step budget not recorded": {"max_steps": None},
+        "args not recorded": {"agent_args": None},
+        "refinement_rounds=3": {"agent_args": {**(bp.agent_args or {}), "refinement_rounds": 3}},
+        "transcribed": {"provenance": "transcribed from x.md @ abc"},
+    }
+    for words, change in cases.items():
+        variant = dataclasses.replace(bp, **change)  # type: ignore[arg-type]
+        assert words in protocol_deviations(variant), (words, protocol_deviations(variant))
+        assert not at_paper_protocol(variant)
+        assert variant_name(variant) == f"BP · {words}"
+        comparison = compare([variant])
+        cell = comparison.cell(MOTION, comparison.columns[0], "SR")
+        assert cell.status == VARIANTS_ONLY and cell.reason is None
+        assert comparison.others == ((f"BP · {words}", variant),)
+    # Settings a bool must match as a bool (1 is not true).
+    flag = dataclasses.replace(bp, agent_args={**(bp.agent_args or {}), "replan_on_divergence": 0})
+    assert protocol_deviations(flag) == ("replan_on_divergence=0",)
+    # A learned agent must record the paper's training budget; MPC's per-env settings apply.
+    ppo = dataclasses.replace(bp, agent="ppo", method="ppo", agent_args={"checkpoint": "c"})
+    assert protocol_deviations(ppo) == ("training not recorded",)
+    assert protocol_deviations(dataclasses.replace(ppo, training="1M env steps")) == ()
+    sweep = "kinder/SweepIntoDrawer3D-o5-v0"
+    mpc = _at_protocol(dataclasses.replace(bp, agent="mpc", method="mpc", env_id=sweep))
+    assert paper_settings("mpc", sweep)["replan_interval"] == 50
+    assert protocol_deviations(mpc) == ("500 steps",)  # upstream's Sweep config: 700 steps
+    assert protocol_deviations(dataclasses.replace(mpc, max_steps=700)) == ()
+    fm = _at_protocol(dataclasses.replace(bp, agent="llm_plan", method="llm_plan", agent_args={}))
+    assert protocol_deviations(fm) == ()
+    lines = dataclasses.replace(fm, agent_args={**(fm.agent_args or {}), "parameter_lines": True})
+    assert variant_name(lines) == "LLMPlan · parameter_lines=true"
+
+
+def test_the_paper_settings_file_is_checked() -> None:
+    settings = load_settings()
+    assert paper_settings("bilevel_planning", MOTION)["refinement_rounds"] == 1
+    assert (
+        paper_settings("bilevel_planning", "kinder/DynPushPullHook2D-o5-v0")["samples_per_step"]
+        == 20
+    )
+    for (agent, _), values in settings.items():
+        fields = {f.name for f in dataclasses.fields(agent_class(agent).Args)}
+        assert set(values) - {"max_steps", "training"} <= fields, (agent, values)
+    header = "agent,env_id,setting,value,source\n"
+    with pytest.raises(ValueError, match="neither"):
+        parse_settings(header + "mpc,kinder/Nope-v0,horizon,1,x\n")
+    with pytest.raises(ValueError, match="not a JSON literal"):
+        parse_settings(header + "mpc,*,search,astar,x\n")
+    with pytest.raises(ValueError, match="given twice"):
+        parse_settings(header + "mpc,*,horizon,1,x\nmpc,*,horizon,2,x\n")
+    with pytest.raises(ValueError, match="header"):
+        parse_settings("a,b\n")
 
 
 def test_a_relabelled_variant_never_fills_the_paper_column(
@@ -179,28 +302,27 @@ def test_a_relabelled_variant_never_fills_the_paper_column(
 ) -> None:
     _, paths = write_report([fixture_run], tmp_path)
     results = results_from_csv(paths["csv"])
-    bp = next(r for r in results if r.agent == "bilevel_planning" and r.env_id == MOTION)
-    # A variant of the same agent with more episodes and another SR (e.g. ppo-dense).
+    bp = _at_protocol(
+        next(r for r in results if r.agent == "bilevel_planning" and r.env_id == MOTION)
+    )
+    # A variant of the same agent at the protocol, with more episodes (e.g. ppo-dense).
     variant = dataclasses.replace(
         bp,
         method="bilevel_planning-variant",
         run_id="f" * 12,
-        episodes=bp.episodes * 10,
         success=Stat.of([0.25, 0.25]),
     )
-    md = paper_markdown(compare([*results, variant]))
-    header = next(line for line in md.splitlines() if line.startswith("| Env |"))
-    names = [c.strip() for c in header.split("|")[1:-1]]
+    comparison = compare([bp, variant])
+    md = paper_markdown(comparison)
     sr = next(line for line in md.splitlines() if line.startswith("| Motion2D-p0 | SR"))
-    cells = [c.strip() for c in sr.split("|")[1:-1]]
-    assert cells[names.index("BP (bilevel_planning)")] == "**1.00 ± 0.000** (1.00 ± 0.000)"
-    assert cells[names.index("bilevel_planning-variant")] == "0.25 ± 0.000"
+    assert sr.split("|")[3].strip() == "**1.00 ± 0.000** (1.00 ± 0.000)"
+    assert comparison.others == (("bilevel_planning-variant", variant),)
     # A run whose label only gained its run id (two runs of one label, other arguments) is the
-    # agent's own: the one with more episodes fills the paper column.
-    other = dataclasses.replace(variant, method="bilevel_planning[ffffff]")
-    md = paper_markdown(compare([*results, other]))
+    # agent's own, and fills the paper column when at the protocol.
+    own = dataclasses.replace(variant, method="bilevel_planning[ffffff]")
+    md = paper_markdown(compare([own]))
     sr = next(line for line in md.splitlines() if line.startswith("| Motion2D-p0 | SR"))
-    assert sr.split("|")[3].strip() == "0.25 ± 0.000 (1.00 ± 0.000)"
+    assert sr.split("|")[3].strip() == "**0.25 ± 0.000** (1.00 ± 0.000)"
 
 
 def test_html_report_in_headless_chromium(fixture_run: Path, tmp_path: Path) -> None:
@@ -258,6 +380,7 @@ def test_cli_report_paper_and_html(fixture_run: Path, tmp_path: Path) -> None:
     )
     assert result.exit_code == 0, result.output
     assert "BP (bilevel_planning)" in result.output and "Not run:" in result.output
+    assert "| variants only (listed under the table) | 1 |" in result.output
     assert (tmp_path / "report.html").exists() and (tmp_path / "paper_comparison.csv").exists()
     config = json.loads((fixture_run / "config.json").read_text())
     assert {r["command"] for r in config["runs"]} == {"kinder bench run (test fixture)"}

@@ -244,6 +244,20 @@ def test_plan_prompt_snapshot(env_id: str) -> None:
     assert "In-context examples" not in prompt
 
 
+def test_parameter_lines_are_a_variant_off_by_default() -> None:
+    """The paper's template lists the skills without what their parameters mean; our line per
+    skill is an option, off by default."""
+    env = make_object_centric("kinder/StickButton2D-b1-v0")
+    x0, _ = env.reset(seed=0)
+    model = create_model(env)
+    assert "parameters:" not in build_prompt(env, model, x0)
+    with_lines = build_prompt(env, model, x0, parameter_lines=True)
+    for skill in model.skills:
+        assert f"    parameters: {' '.join(skill.controller_cls.params_doc.split())}" in with_lines
+    for name in ("llm_plan", "vlm_plan", "llm_con", "vlm_con"):
+        assert agent_class(name).Args().parameter_lines is False
+
+
 @pytest.mark.parametrize("env_id", ["kinder/Motion2D-p0-v0", "kinder/StickButton2D-b1-v0"])
 def test_con_prompt_snapshot(env_id: str, tmp_path: Path) -> None:
     env = make_object_centric(env_id)

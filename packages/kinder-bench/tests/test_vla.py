@@ -166,3 +166,18 @@ def test_vla_agent_needs_a_url() -> None:
 def test_vla_agent_says_it_needs_a_server() -> None:
     assert "needs a policy server" in str(VLAAgent.unavailable(VLAArgs(), MOTION))
     assert VLAAgent.unavailable(VLAArgs(url="ws://127.0.0.1:8000"), MOTION) is None
+
+
+def test_vla_cameras_overview_sends_the_overview_image_only() -> None:
+    """Upstream's 3D evaluation sent the overview image; ``cameras=overview`` does, and the
+    default sends the three cameras of our openpi export."""
+    env = kinder_core.make("kinder/BaseMotion3D-v0")
+    obs, _ = env.reset(seed=1000)
+    both = VLAAgent(env, VLAArgs(url="ws://127.0.0.1:1"), seed=0).request(obs)["observation"]
+    one = VLAAgent(env, VLAArgs(url="ws://127.0.0.1:1", cameras="overview"), seed=0)
+    only = one.request(obs)["observation"]
+    assert {"base_0_rgb", "left_wrist_0_rgb", "right_wrist_0_rgb"} <= set(both)
+    assert "left_wrist_0_rgb" not in only and "right_wrist_0_rgb" not in only
+    np.testing.assert_array_equal(only["base_0_rgb"], both["right_wrist_0_rgb"])
+    with pytest.raises(ValueError, match="cameras must be one of"):
+        VLAArgs(url="ws://127.0.0.1:1", cameras="wrist")

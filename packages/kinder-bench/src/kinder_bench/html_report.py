@@ -6,8 +6,9 @@ archived or opened offline. It shows:
 
 * filters by env and by method (checkboxes; they apply to everything below),
 * the results table (one row per env × method: SR, Rwd on successes, Inf-Time, each mean ± std
-  over seeds, and the paper's value beside ours where the paper has one; with ``paper=True`` also
-  the paper's cells we did not run, with the reason),
+  over seeds, and the paper's value beside ours only for a run at the paper's protocol; any other
+  run is a variant named by what differs, as in :mod:`kinder_bench.paper`; with ``paper=True``
+  also the paper's cells no run of any kind covers, with the reason),
 * the success-rate plot (an SVG bar chart drawn by the page from the table's data, ±std bars),
 * the recorded episodes per env (the first recorded episode of each method; videos larger than
   :data:`MAX_VIDEO_BYTES` are listed by path instead of embedded),
@@ -34,9 +35,11 @@ from kinder_bench.paper import (
     Comparison,
     PaperResults,
     Result,
+    at_paper_protocol,
     fmt_stat,
     load_paper,
     metric_digits,
+    variant_name,
 )
 
 HTML_FILE = "report.html"
@@ -67,11 +70,14 @@ def _row_data(
 ) -> list[dict[str, Any]]:
     rows = []
     for r in results:
-        method = paper.method_of(r.agent)
+        # Only a run at the paper's protocol stands beside the paper's figure.
+        conforms = at_paper_protocol(r, paper)
+        method = paper.method_of(r.agent) if conforms else None
         row: dict[str, Any] = {
             "env": r.env_id,
             "env_short": short_id(r.env_id),
             "method": r.method,
+            "name": r.method if conforms else variant_name(r, paper),
             "agent": r.agent,
             "paper_method": method,
             "seeds": r.num_seeds,
@@ -89,14 +95,14 @@ def _row_data(
             row[f"paper_{metric}"] = pv.text() if pv is not None else ""
         rows.append(row)
     if comparison is not None:
-        done = {(c.env_id, c.column.key) for c in comparison.cells.values() if c.reason is None}
-        for cell in comparison.cells.values():
-            if cell.reason is None or cell.metric != "SR" or (cell.env_id, cell.column.key) in done:
+        for cell in comparison.paper_cells():
+            if cell.reason is None:
                 continue
             row = {
                 "env": cell.env_id,
                 "env_short": short_id(cell.env_id),
                 "method": cell.column.agent,
+                "name": cell.column.agent,
                 "agent": cell.column.agent,
                 "paper_method": cell.column.paper_method,
                 "seeds": 0,
@@ -326,7 +332,10 @@ def render_html(
     w(
         "<p style='font-size:12px'>mean ± std over seeds (ours) and the paper's Table II mean ± "
         "its appendix std. SR: success rate; Rwd: return of successful episodes; Inf-Time: "
-        "seconds of agent time per episode. n/r: not run here (reason given).</p>"
+        "seconds of agent time per episode. The paper's value stands beside ours only for a run at "
+        "the paper's protocol (seeds 0–4 × 50 episodes, its step budget, settings and training "
+        "budget); other runs are variants named by what differs. n/r: no run of any kind here "
+        "(reason given).</p>"
     )
     w("<table id='results'><thead><tr><th>env</th><th>method</th><th>seeds × episodes</th>")
     for metric in METRICS:
@@ -335,7 +344,7 @@ def render_html(
     for r in rows:
         cls = " class='notrun'" if r["reason"] else ""
         per = f"{r['seeds']} × {r['episodes'] // max(1, r['seeds'])}" if r["seeds"] else ""
-        method = r["method"] + (f" ({r['paper_method']})" if r["paper_method"] else "")
+        method = r["name"] + (f" ({r['paper_method']})" if r["paper_method"] else "")
         w(
             f"<tr{cls} data-env='{_e(r['env'])}' data-method='{_e(r['method'])}'>"
             f"<td>{_e(r['env_short'])}</td><td>{_e(method)}</td><td class='num'>{per}</td>"

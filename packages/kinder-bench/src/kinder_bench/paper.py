@@ -7,21 +7,20 @@ from run directories (:func:`results_from_summaries`) or from committed ``summar
 (:func:`results_from_csv`), so the same table comes from a fresh run and from
 ``benchmarks/results/``.
 
-:func:`paper_markdown` writes the paper's layout: one column per paper method (BP, LLMCon, ...,
-SAC, with our agent's name), then one per method we ran that the paper does not have; per env
-(the paper's eight first, then any other env we ran) the rows SR ↑, Rwd ↑ and Inf-Time ↓. Each
-cell is ``ours (paper)``, both ``mean ± std`` in the paper's form (the mean with Table II's digits,
-the std with its appendix's three): ours over seeds as in :mod:`kinder_bench.metrics`, the
-paper's as printed. A paper cell we have no result for says why, as a
-lettered note under the table: the agent's own :meth:`~kinder_bench.agents.Agent.unavailable`
-reason (a checkpoint, an endpoint, a GPU, a planning model), that no such agent exists here, or
-that it can run here but is not in the given runs.
-
-When several of our runs of one agent cover a paper env (e.g. two argument settings), the one
-with the most episodes fills the paper column and the others get columns of their own. A run
-labelled other than its agent's name (e.g. ``ppo-dense``, PPO trained on BaseMotion3D's dense
-reward by ``benchmarks/rl_bench.py``) is a variant of the paper's setting and never fills the
-paper column: it gets its own.
+One rule decides what fills a cell beside the paper: a run at the paper's protocol, i.e. seeds
+0–4 × 50 episodes, the protocol's step budget (:mod:`kinder_bench.protocol`), the baseline's
+paper settings and its paper training budget (``kinder_bench/data/paper_settings.csv``, loaded by
+:func:`load_settings`). :func:`protocol_deviations` lists what a run's recorded settings (seeds,
+episodes, step budget, agent arguments, training budget) do differently; a run with none, labelled
+with its agent's name and measured by us (not transcribed from a page), is at the paper's
+protocol. Every other run is a variant, named by what differs (:func:`variant_name`:
+``MPC · 2×2, horizon=20``) and listed in its own row with its budget, never in the paper's
+column. A paper cell is therefore at the paper's protocol, covered by variants only, or not run
+(``n/r``) — and only then does it say why, as a lettered note under the table: the agent's own
+:meth:`~kinder_bench.agents.Agent.unavailable` reason (a checkpoint, an endpoint, a GPU, a
+planning model), that no such agent exists here, or that it can run here but is not in the given
+runs. When several runs of one agent at the paper's protocol cover a paper env, the one with the
+most episodes fills the cell and the others are listed as variants.
 """
 
 from __future__ import annotations
@@ -30,6 +29,7 @@ import csv
 import dataclasses
 import functools
 import io
+import json
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from importlib import resources
 from pathlib import Path
@@ -38,10 +38,12 @@ from typing import Any
 from kinder_bench.agents import agent_name, unavailable_reason
 from kinder_bench.envs import short_id
 from kinder_bench.metrics import Stat, Summary
+from kinder_bench.protocol import PAPER_EPISODES, PAPER_MAX_STEPS, PAPER_SEEDS
 
 METRICS = ("SR", "Rwd", "Inf-Time")
 METRIC_LABELS = {"SR": "SR ↑", "Rwd": "Rwd ↑", "Inf-Time": "Inf-Time (s) ↓"}
 PAPER_FILE = "paper_results.csv"
+SETTINGS_FILE = "paper_settings.csv"
 _COLUMNS = ("env_id", "method", "agent", "metric", "mean", "std")
 
 #: The reason of a paper cell whose agent can run here but is not in the runs reported.
@@ -157,6 +159,18 @@ class Result:
     """The command that produced it, when known."""
     settings: str = ""
     """What tells this run from others of its label (``search=gbfs``), shown after its name."""
+    seeds: tuple[int, ...] | None = None
+    """The run seeds (None: not recorded)."""
+    max_steps: int | None = None
+    """The step budget per episode (None: not recorded)."""
+    agent_args: Mapping[str, Any] | None = None
+    """The agent's full arguments (None: not recorded)."""
+    training: str = ""
+    """The training budget of a learned agent's checkpoints (``1M env steps``; empty: not
+    recorded)."""
+    provenance: str = ""
+    """Where a row not made from a run directory comes from (``transcribed from rl.md @ 39c729e``);
+    empty for rows the runner wrote."""
 
     @property
     def name(self) -> str:
@@ -192,6 +206,9 @@ def results_from_summaries(
             episodes=s.episodes,
             errors=s.errors,
             command=commands.get(s.run_id, ""),
+            seeds=tuple(m.seed for m in s.per_seed),
+            max_steps=s.max_steps,
+            agent_args=dict(s.agent_args),
         )
         for s in summaries
     ]
@@ -202,9 +219,19 @@ def _stat(row: Mapping[str, str], prefix: str, n: int) -> Stat:
     return Stat(float(mean) if mean else None, float(std) if std else None, n if mean else 0)
 
 
+def _optional_int(text: str | None) -> int | None:
+    return int(text) if text else None
+
+
+def parse_seeds_field(text: str) -> tuple[int, ...] | None:
+    """The ``seeds`` field of a summary row (space-separated integers; empty: not recorded)."""
+    return tuple(int(x) for x in text.split()) if text.strip() else None
+
+
 def results_from_csv(path: Path | str) -> list[Result]:
-    """Results from a ``summary.csv`` written by the report (extra columns are ignored; a
-    ``command`` column, when there, is kept)."""
+    """Results from a ``summary.csv`` written by the report (extra columns are ignored; the
+    ``command``, ``seeds``, ``max_steps``, ``agent_args`` (JSON), ``training`` and ``provenance``
+    columns, when there, are kept)."""
     path = Path(path)
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
@@ -226,6 +253,11 @@ def results_from_csv(path: Path | str) -> list[Result]:
                     episodes=int(row["episodes"]),
                     errors=int(row.get("errors") or 0),
                     command=row.get("command", "") or "",
+                    seeds=parse_seeds_field(row.get("seeds") or ""),
+                    max_steps=_optional_int(row.get("max_steps")),
+                    agent_args=json.loads(row["agent_args"]) if row.get("agent_args") else None,
+                    training=row.get("training", "") or "",
+                    provenance=row.get("provenance", "") or "",
                 )
             )
         except (KeyError, ValueError) as e:
@@ -257,9 +289,152 @@ def metric_digits(metric: str, stat: Stat) -> int:
     return 3 if stat.mean is not None and abs(stat.mean) < 0.1 else 2
 
 
+_SETTINGS_COLUMNS = ("agent", "env_id", "setting", "value", "source")
+#: Settings whose value is plain text, not a JSON literal.
+_TEXT_SETTINGS = ("training",)
+#: Settings that are not agent arguments.
+_RUN_SETTINGS = ("max_steps", "training")
+
+Settings = Mapping[tuple[str, str], Mapping[str, Any]]
+"""(agent, env id or ``*``) → {setting: value}: the baselines' paper settings."""
+
+
+def parse_settings(text: str, source: str = SETTINGS_FILE) -> dict[tuple[str, str], dict[str, Any]]:
+    """Parse and check the paper-settings data file (``#`` lines are comments).
+
+    Raises ValueError naming the line when a row is malformed, its env is neither ``*`` nor a
+    benchmark env, a value is not a JSON literal (``training`` is plain text) or a setting is
+    given twice for one (agent, env).
+    """
+    lines = [(n, line) for n, line in enumerate(text.splitlines(), 1) if not line.startswith("#")]
+    lines = [(n, line) for n, line in lines if line.strip()]
+    rows = list(csv.reader(line for _, line in lines))
+    if not rows or tuple(rows[0]) != _SETTINGS_COLUMNS:
+        raise ValueError(f"{source}: expected the header {','.join(_SETTINGS_COLUMNS)}")
+    out: dict[tuple[str, str], dict[str, Any]] = {}
+    for (n, _), row in zip(lines[1:], rows[1:]):
+        where = f"{source}:{n}"
+        if len(row) != len(_SETTINGS_COLUMNS) or not all(f.strip() for f in row[:4]):
+            raise ValueError(
+                f"{where}: expected {len(_SETTINGS_COLUMNS)} non-empty fields, got {row}"
+            )
+        agent, env_id, setting, value = (f.strip() for f in row[:4])
+        if env_id != "*" and env_id not in PAPER_MAX_STEPS:
+            raise ValueError(f"{where}: env {env_id!r} is neither '*' nor a benchmark env")
+        parsed: Any = value
+        if setting not in _TEXT_SETTINGS:
+            try:
+                parsed = json.loads(value)
+            except json.JSONDecodeError:
+                raise ValueError(f"{where}: {value!r} is not a JSON literal") from None
+        group = out.setdefault((agent, env_id), {})
+        if setting in group:
+            raise ValueError(f"{where}: {setting} of {agent} on {env_id} is given twice")
+        group[setting] = parsed
+    return out
+
+
+@functools.cache
+def load_settings() -> Settings:
+    """The baselines' paper settings, from the package's data file."""
+    text = resources.files("kinder_bench.data").joinpath(SETTINGS_FILE).read_text(encoding="utf-8")
+    return parse_settings(text)
+
+
+def paper_settings(agent: str, env_id: str, settings: Settings | None = None) -> dict[str, Any]:
+    """What a run of ``agent`` on ``env_id`` must use to be at the paper's protocol (the env's
+    own rows over the ``*`` rows)."""
+    table = load_settings() if settings is None else settings
+    out = dict(table.get((agent, "*"), {}))
+    out.update(table.get((agent, env_id), {}))
+    return out
+
+
+def _value_text(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return str(value)
+
+
+def _same(got: Any, want: Any) -> bool:
+    """Equal as settings: ``1 == 1.0``, but a bool only equals a bool."""
+    if isinstance(got, bool) or isinstance(want, bool):
+        return isinstance(got, bool) and isinstance(want, bool) and got == want
+    return bool(got == want)
+
+
+def protocol_deviations(result: Result, settings: Settings | None = None) -> tuple[str, ...]:
+    """What a run does differently from the paper's protocol, from its recorded settings, in
+    words short enough for a name (``5×10``, ``horizon=20``, ``training not recorded``); empty
+    when the run is at the paper's protocol. A setting the row does not record counts as a
+    difference: a cell is filled only by what is known to match."""
+    want = paper_settings(result.agent, result.env_id, settings)
+    out: list[str] = []
+    per_seed = result.episodes // max(1, result.num_seeds)
+    if (
+        result.num_seeds != len(PAPER_SEEDS)
+        or per_seed != PAPER_EPISODES
+        or result.episodes != result.num_seeds * per_seed
+    ):
+        out.append(f"{result.num_seeds}×{per_seed}")
+    elif result.seeds is None:
+        out.append("seeds not recorded")
+    elif tuple(sorted(result.seeds)) != PAPER_SEEDS:
+        out.append("seeds " + " ".join(str(s) for s in result.seeds))
+    budget = want.get("max_steps", PAPER_MAX_STEPS.get(result.env_id))
+    if result.max_steps is None:
+        out.append("step budget not recorded")
+    elif budget is not None and result.max_steps != budget:
+        out.append(f"{result.max_steps} steps")
+    args = {k: v for k, v in want.items() if k not in _RUN_SETTINGS}
+    if args and result.agent_args is None:
+        out.append("args not recorded")
+    elif result.agent_args is not None:
+        for key, value in args.items():
+            if key not in result.agent_args:
+                out.append(f"{key} not recorded")
+            elif not _same(result.agent_args[key], value):
+                out.append(f"{key}={_value_text(result.agent_args[key])}")
+    if "training" in want and result.training != want["training"]:
+        out.append(f"training {result.training}" if result.training else "training not recorded")
+    if result.provenance:
+        out.append("transcribed")
+    return tuple(out)
+
+
+def variant_name(
+    result: Result, paper: PaperResults | None = None, settings: Settings | None = None
+) -> str:
+    """A run's name in the comparison: its paper method (or its label, for an agent the paper
+    does not have or a run labelled otherwise), its settings, then what differs from the
+    paper's protocol (``MPC · 2×2, horizon=20``)."""
+    paper = paper or load_paper()
+    method = paper.method_of(result.agent)
+    if method is None or result.is_variant:
+        base = result.name
+    else:
+        base = f"{method} ({result.settings})" if result.settings else method
+    deviations = protocol_deviations(result, settings)
+    return f"{base} · {', '.join(deviations)}" if deviations else base
+
+
+def at_paper_protocol(
+    result: Result, paper: PaperResults | None = None, settings: Settings | None = None
+) -> bool:
+    """Whether a run may fill its paper cell: an agent and env of the paper's table, labelled
+    with its agent's name, measured here, and without deviation from the paper's protocol."""
+    paper = paper or load_paper()
+    return (
+        paper.method_of(result.agent) is not None
+        and result.env_id in paper.envs
+        and not result.is_variant
+        and not protocol_deviations(result, settings)
+    )
+
+
 @dataclasses.dataclass(frozen=True)
 class Column:
-    """One column of the comparison: a paper method (with our agent) or one of our methods."""
+    """One column of the comparison: a paper method and our agent for it."""
 
     key: str
     title: str
@@ -267,17 +442,32 @@ class Column:
     paper_method: str | None
 
 
+PAPER = "paper"
+VARIANTS_ONLY = "variants only"
+NOT_RUN = "n/r"
+
+
 @dataclasses.dataclass(frozen=True)
 class Cell:
-    """One (env, column, metric) of the comparison."""
+    """One (env, paper method, metric) of the comparison."""
 
     env_id: str
     column: Column
     metric: str
     ours: Result | None
+    """Our run at the paper's protocol, if any."""
     paper: PaperValue | None
     reason: str | None
-    """Why ours is missing (None when we have it, or when the paper has no such cell either)."""
+    """Why no run of any kind exists (None when one does)."""
+    variants: tuple[Result, ...] = ()
+    """Our runs of this baseline on this env that are not at the paper's protocol."""
+
+    @property
+    def status(self) -> str:
+        """:data:`PAPER`, :data:`VARIANTS_ONLY` or :data:`NOT_RUN`."""
+        if self.ours is not None:
+            return PAPER
+        return VARIANTS_ONLY if self.variants else NOT_RUN
 
     @property
     def ours_text(self) -> str:
@@ -289,15 +479,22 @@ class Cell:
 
 @dataclasses.dataclass(frozen=True)
 class Comparison:
-    """Every cell of the comparison table, with its envs and columns in order."""
+    """Every cell of the paper's table, with its envs and columns in order, and every run that
+    does not fill a cell (variants, other agents, other envs) with its name."""
 
     envs: tuple[str, ...]
     columns: tuple[Column, ...]
     cells: Mapping[tuple[str, str, str], Cell]
     """(env id, column key, metric) → cell."""
+    others: tuple[tuple[str, Result], ...] = ()
+    """(name, run) of every run that fills no paper cell, paper envs first."""
 
     def cell(self, env_id: str, column: Column, metric: str) -> Cell:
         return self.cells[(env_id, column.key, metric)]
+
+    def paper_cells(self) -> list[Cell]:
+        """One cell (its SR) per (env, paper method)."""
+        return [self.cell(e, c, "SR") for e in self.envs for c in self.columns]
 
 
 Reasoner = Callable[[str, str], str | None]
@@ -308,55 +505,38 @@ def compare(
     results: Sequence[Result],
     paper: PaperResults | None = None,
     reason: Reasoner | None = None,
+    settings: Settings | None = None,
 ) -> Comparison:
-    """Pair our results with the paper's cells (see the module docstring for the rules)."""
+    """Pair our results with the paper's cells (see the module docstring for the rule)."""
     paper = paper or load_paper()
     reason = reason or (lambda agent, env: unavailable_reason(agent, env))
-    # Per (env, agent), the run with the most episodes fills the paper column; variants never do.
     primary: dict[tuple[str, str], Result] = {}
     for r in results:
-        if paper.method_of(r.agent) is None or r.is_variant:
+        if not at_paper_protocol(r, paper, settings):
             continue
         best = primary.get((r.env_id, r.agent))
         if best is None or r.episodes > best.episodes:
             primary[(r.env_id, r.agent)] = r
-    columns = [Column(m, f"{m} ({paper.agents[m]})", paper.agents[m], m) for m in paper.methods]
-    extra = [r for r in results if primary.get((r.env_id, r.agent)) is not r]
-    # A method's column is its label, with the run id appended when the label covers
-    # several runs on one env.
-    labels: dict[tuple[str, str], set[str]] = {}
-    for r in extra:
-        labels.setdefault((r.env_id, r.name), set()).add(r.run_id)
-    clash = {m for (_, m), ids in labels.items() if len(ids) > 1}
-    extra_key = {
-        r.run_id: f"{r.name}[{r.run_id[:6]}]" if r.name in clash else r.name for r in extra
-    }
-    seen: set[str] = set()
-    for r in extra:
-        key = extra_key[r.run_id]
-        if key not in seen:
-            seen.add(key)
-            columns.append(Column(key, key, r.agent, None))
-    envs = list(paper.envs) + list(
-        dict.fromkeys(r.env_id for r in results if r.env_id not in paper.envs)
+    filling = {id(r) for r in primary.values()}
+    others = [r for r in results if id(r) not in filling]
+    env_order = {e: i for i, e in enumerate(paper.envs)}
+    others.sort(key=lambda r: env_order.get(r.env_id, len(env_order)))
+    columns = tuple(
+        Column(m, f"{m} ({paper.agents[m]})", paper.agents[m], m) for m in paper.methods
     )
-    ours_by_key = {(r.env_id, extra_key[r.run_id]): r for r in extra}
     cells: dict[tuple[str, str, str], Cell] = {}
-    for env in envs:
+    for env in paper.envs:
         for col in columns:
-            if col.paper_method is not None:
-                ours = primary.get((env, col.agent))
-            else:
-                ours = ours_by_key.get((env, col.key))
+            ours = primary.get((env, col.agent))
+            variants = tuple(r for r in others if r.env_id == env and r.agent == col.agent)
             why = None
-            if ours is None and col.paper_method is not None and env in paper.envs:
+            if ours is None and not variants:
                 why = reason(col.agent, env) or NOT_IN_RUNS
             for metric in METRICS:
-                pv = None
-                if col.paper_method is not None:
-                    pv = paper.cells.get((env, col.paper_method, metric))
-                cells[(env, col.key, metric)] = Cell(env, col, metric, ours, pv, why)
-    return Comparison(tuple(envs), tuple(columns), cells)
+                pv = paper.cells.get((env, col.key, metric))
+                cells[(env, col.key, metric)] = Cell(env, col, metric, ours, pv, why, variants)
+    named = tuple((variant_name(r, paper, settings), r) for r in others)
+    return Comparison(paper.envs, columns, cells, named)
 
 
 def _notes(comparison: Comparison) -> dict[str, str]:
@@ -369,24 +549,87 @@ def _notes(comparison: Comparison) -> dict[str, str]:
     return letters
 
 
+def _short_reason(reason: str) -> str:
+    """A reason's first clause (up to its first colon or semicolon)."""
+    for stop in (":", ";"):
+        reason = reason.split(stop, 1)[0]
+    return reason.strip().rstrip(".")
+
+
+def counts_markdown(comparison: Comparison) -> str:
+    """How many of the paper's (method × env) cells are at the paper's protocol, covered by
+    variants only, and not run (per reason, with its note letter)."""
+    cells = comparison.paper_cells()
+    notes = _notes(comparison)
+    n_paper = sum(c.status == PAPER for c in cells)
+    n_variants = sum(c.status == VARIANTS_ONLY for c in cells)
+    lines = [
+        f"| The paper's {len(comparison.columns)} × {len(comparison.envs)} cells | count |",
+        "|---|---|",
+        f"| at the paper's protocol | {n_paper} |",
+        f"| variants only (listed under the table) | {n_variants} |",
+    ]
+    for why, letter in notes.items():
+        n = sum(c.reason == why for c in cells)
+        lines.append(f"| n/r [{letter}]: {_short_reason(why)} | {n} |")
+    lines.append(f"| total | {len(cells)} |")
+    return "\n".join(lines) + "\n"
+
+
+def _budget(result: Result) -> str:
+    per_seed = result.episodes // max(1, result.num_seeds)
+    text = f"{result.num_seeds} × {per_seed}"
+    if result.max_steps is not None:
+        text += f", {result.max_steps} steps"
+    if result.training:
+        text += f", trained {result.training}"
+    return text
+
+
+def others_markdown(comparison: Comparison) -> str:
+    """Every run that fills no paper cell, one row each with its budget, beside the paper's
+    figure for its baseline (when the paper has the baseline and the env)."""
+    paper = load_paper()
+    lines = [
+        "| Env | Run | Seeds × episodes, budget | SR ↑ | Rwd ↑ | Inf-Time (s) ↓ "
+        "| Paper SR (its baseline) | Provenance |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, r in comparison.others:
+        stats = [fmt_stat(r.stat(m), metric_digits(m, r.stat(m)), STD_DIGITS) for m in METRICS]
+        method = paper.method_of(r.agent)
+        pv = paper.cells.get((r.env_id, method, "SR")) if method else None
+        ref = f"{pv.text()} ({method})" if pv is not None else ""
+        where = r.provenance or "measured (run summary)"
+        lines.append(
+            f"| {short_id(r.env_id)} | {name} | {_budget(r)} | "
+            + " | ".join(stats)
+            + f" | {ref} | {where} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def paper_markdown(comparison: Comparison) -> str:
-    """The paper's Table II layout; every cell ``ours (paper)``, notes for the cells not run."""
+    """The counts, the paper's Table II layout (every cell ``ours (paper)`` for a run at the
+    paper's protocol, ``var.`` when only variants ran, ``n/r [x]`` with a note when nothing
+    ran), then every other run in rows of its own."""
     notes = _notes(comparison)
     cols = comparison.columns
     lines = [
+        counts_markdown(comparison).rstrip("\n"),
+        "",
         "Each cell: ours (paper), mean ± std over seeds (the std with three digits, as the "
-        "paper's appendix prints it; the paper's mean from Table II, its std from the appendix). "
-        "`--`: undefined (no success, or no episode); `n/r [x]`: not run, note x below.",
+        "paper's appendix prints it; the paper's mean from Table II, its std from the appendix), "
+        "filled only by a run at the paper's protocol (seeds 0–4 × 50 episodes, the paper's step "
+        "budget, the baseline's paper settings and training budget). `var.`: only variants ran "
+        "(rows below the table); `n/r [x]`: no run of any kind, note x below; `--`: undefined "
+        "(no success, or no episode).",
         "",
         "| Env | Metric | " + " | ".join(c.title for c in cols) + " |",
         "|---|---|" + "---|" * len(cols),
     ]
     for env in comparison.envs:
-        srs = [
-            comparison.cell(env, c, "SR").ours
-            for c in cols
-            if comparison.cell(env, c, "SR").ours is not None
-        ]
+        srs = [comparison.cell(env, c, "SR").ours for c in cols]
         best = max((r.success.mean or 0.0 for r in srs if r is not None), default=0.0)
         for i, metric in enumerate(METRICS):
             row = []
@@ -396,6 +639,8 @@ def paper_markdown(comparison: Comparison) -> str:
                     ours = cell.ours_text
                     if metric == "SR" and best > 0 and cell.ours.success.mean == best:
                         ours = f"**{ours}**"
+                elif cell.variants:
+                    ours = "var."
                 elif cell.reason is not None:
                     ours = f"n/r [{notes[cell.reason]}]"
                 else:
@@ -406,8 +651,17 @@ def paper_markdown(comparison: Comparison) -> str:
             label = short_id(env) if i == 0 else ""
             lines.append(f"| {label} | {METRIC_LABELS[metric]} | " + " | ".join(row) + " |")
     if notes:
-        lines += ["", "Not run:", ""]
+        lines += ["", "Not run: no run of any kind exists for these cells.", ""]
         lines += [f"- [{letter}] {why}" for why, letter in notes.items()]
+    if comparison.others:
+        lines += [
+            "",
+            "Variants and other runs: every run that does not fill a cell above, named by what "
+            "differs from the paper's protocol (`5×10`: 5 seeds × 10 episodes; `transcribed`: "
+            "copied from the page its provenance names, its run directory gone).",
+            "",
+            others_markdown(comparison).rstrip("\n"),
+        ]
     return "\n".join(lines) + "\n"
 
 
@@ -417,6 +671,7 @@ PAPER_CSV_COLUMNS = (
     "agent",
     "paper_method",
     "metric",
+    "status",
     "ours_mean",
     "ours_std",
     "ours_seeds",
@@ -424,14 +679,17 @@ PAPER_CSV_COLUMNS = (
     "paper_mean",
     "paper_std",
     "not_run_reason",
+    "variants",
 )
 
 
 def paper_csv(comparison: Comparison) -> str:
-    """One row per (env, column, metric): ours, the paper's (as printed), and why not run."""
+    """One row per (env, paper method, metric): its status, ours (at the paper's protocol), the
+    paper's (as printed), why not run, and the names of the variants that ran."""
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(PAPER_CSV_COLUMNS)
+    names = {id(r): name for name, r in comparison.others}
 
     def v(x: float | None) -> str:
         return "" if x is None else repr(x)
@@ -445,6 +703,7 @@ def paper_csv(comparison: Comparison) -> str:
                 cell.column.agent,
                 cell.column.paper_method or "",
                 cell.metric,
+                cell.status,
                 v(stat.mean) if stat else "",
                 v(stat.std) if stat else "",
                 cell.ours.num_seeds if cell.ours else "",
@@ -452,6 +711,7 @@ def paper_csv(comparison: Comparison) -> str:
                 cell.paper.mean_text if cell.paper else "",
                 cell.paper.std_text if cell.paper else "",
                 cell.reason or "",
+                "; ".join(names[id(r)] for r in cell.variants),
             ]
         )
     return buf.getvalue()
@@ -459,6 +719,7 @@ def paper_csv(comparison: Comparison) -> str:
 
 def comparison_json(comparison: Comparison) -> list[dict[str, Any]]:
     """The cells as plain dicts (for the HTML report)."""
+    names = {id(r): name for name, r in comparison.others}
     out = []
     for cell in comparison.cells.values():
         out.append(
@@ -468,9 +729,11 @@ def comparison_json(comparison: Comparison) -> list[dict[str, Any]]:
                 "agent": cell.column.agent,
                 "paper_method": cell.column.paper_method,
                 "metric": cell.metric,
+                "status": cell.status,
                 "ours": cell.ours_text if cell.ours is not None else None,
                 "paper": cell.paper.text() if cell.paper is not None else None,
                 "reason": cell.reason,
+                "variants": [names[id(r)] for r in cell.variants],
             }
         )
     return out

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -107,7 +108,16 @@ CSV_COLUMNS = (
     "env_time_mean",
     "env_time_std",
     "command",
+    "seeds",
+    "agent_args",
+    "training",
+    "provenance",
 )
+"""A summary row: the aggregate, the command that ran it, and the settings that decide whether
+it is at the paper's protocol (:func:`kinder_bench.paper.protocol_deviations`): ``seeds``
+(space-separated), ``agent_args`` (JSON), ``training`` (a learned agent's training budget, written
+by the tool that trained it) and ``provenance`` (empty for rows the runner wrote; where a
+transcribed row comes from otherwise)."""
 
 
 def run_commands(run_dirs: Sequence[Path | str]) -> dict[str, str]:
@@ -122,7 +132,8 @@ def run_commands(run_dirs: Sequence[Path | str]) -> dict[str, str]:
 
 def csv_table(summaries: Sequence[Summary], commands: Mapping[str, str] | None = None) -> str:
     """One row per env × method (empty cells where a value is undefined); ``command``: the
-    command recorded for the run (``commands``: run id → command)."""
+    command recorded for the run (``commands``: run id → command); ``training`` and
+    ``provenance`` are left empty."""
     commands = commands or {}
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
@@ -154,6 +165,10 @@ def csv_table(summaries: Sequence[Summary], commands: Mapping[str, str] | None =
                 v(s.env_time.mean),
                 v(s.env_time.std),
                 commands.get(s.run_id, ""),
+                " ".join(str(m.seed) for m in s.per_seed),
+                json.dumps(s.agent_args, sort_keys=True, default=str),
+                "",
+                "",
             ]
         )
     return buf.getvalue()

@@ -1,13 +1,19 @@
 """``docs/results.md``: the project's current results, from the committed run summaries.
 
-Every ``*_summary.csv`` in ``benchmarks/results/`` (the ``summary.csv`` a report writes, copied
-there, with a ``command`` column: the command that produced each row) becomes a table, and all of
-them together fill the paper's Table II layout beside the paper's figures
-(:mod:`kinder_bench.paper`). A row without its command is an error: every committed figure must
-say how it was measured. A paper cell without a committed result says whether the project has
-the agent at all (not whether this machine could run it, so the page is the same everywhere).
-Columns a summary has beyond the report's (e.g. ``search``) are shown after the method's name.
-``tools/gen_results_doc.py`` (``make results-doc``) writes the page.
+Every ``*_summary.csv`` in ``benchmarks/results/`` (the ``summary.csv`` the runner writes into a
+run directory when a run ends, copied there, with a ``command`` column: the command that produced
+each row) becomes a table, and all of them together fill the paper's Table II layout beside the
+paper's figures (:mod:`kinder_bench.paper`) under its rule: a cell is filled only by a run at the
+paper's protocol; every other run is a labelled variant in rows of its own; ``n/r`` only where no
+run of any kind exists, with why and the command that fills it. The page opens with the count of
+the paper's 13 × 8 cells in each state. A row without its command is an error: every committed
+figure must say how it was measured. A row transcribed from a results page (its run directory
+gone) says so in its ``provenance`` column and is never at the paper's protocol. Why a paper cell
+was not run is said independently of this machine (so the page is the same everywhere). Columns a
+summary has beyond the report's (e.g. ``search``) are shown after the method's name. The page
+ends with every deviation of a baseline from the paper
+(``kinder_bench/data/baseline_deviations.csv``). ``tools/gen_results_doc.py``
+(``make results-doc``) writes the page.
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ import csv
 import dataclasses
 import os
 from collections.abc import Sequence
+from importlib import resources
 from pathlib import Path
 
 from kinder_bench.agents import AGENTS
@@ -26,6 +33,7 @@ from kinder_bench.paper import (
     metric_digits,
     paper_markdown,
     results_from_csv,
+    variant_name,
 )
 from kinder_bench.report import CSV_COLUMNS
 
@@ -33,8 +41,8 @@ GENERATOR = "make results-doc"
 
 #: The note of the VLA (π0.5) cells: what they need and how to fill them (docs/vla.md).
 VLA_REASON = (
-    "π0.5 needs a GPU and its weights, which this project's machines do not have (no GPU, no "
-    "model hub), so these cells were not run. On a GPU machine with openpi (docs/vla.md): "
+    "needs a GPU for π0.5: π0.5 needs a GPU and its weights, which this project's machines do "
+    "not have (no GPU, no model hub). On a GPU machine with openpi (docs/vla.md): "
     "`kinder demos export-openpi datasets/<name>/data/lerobot $HF_LEROBOT_HOME/kinder/<name>`; in "
     "openpi, with the `pi05_kinder` config of docs/vla.md, `uv run scripts/compute_norm_stats.py "
     "--config-name pi05_kinder`, `uv run scripts/train.py pi05_kinder --exp-name=<name>` and "
@@ -42,6 +50,38 @@ VLA_REASON = (
     "--policy.dir=checkpoints/pi05_kinder/<name>/29999`; then `kinder bench run --agent vla "
     "--arg url=ws://HOST:8000 -e <env> --seeds 0-4 --episodes 50`"
 )
+
+#: The note of the LLM/VLM planner cells.
+ENDPOINT_REASON = (
+    "needs a model endpoint for GPT-5.2: the paper's model through an OpenAI-compatible API, "
+    "which this project's machines cannot reach. With `OPENAI_API_KEY` set (or "
+    "`--arg base_url=...`): "
+    "`kinder bench run -a <llm_plan|vlm_plan|llm_con|vlm_con> -e <env> --seeds 0-4 --episodes 50`"
+)
+
+#: The note of the diffusion-policy cells at the paper's training budget.
+DIFFUSION_REASON = (
+    "needs a GPU for the paper's training budget: a 224×224 image UNet, 100k steps × batch 64 per "
+    "env, "
+    "trains at 1–2 samples/s on this project's CPUs (benchmarks/results/learning.md); on a GPU: "
+    "`python benchmarks/<dp|dpes>.py --env <env> --preset paper --device cuda --seeds 0-4 "
+    "--episodes 50 --out runs/<dp|dpes>`"
+)
+
+#: Agents that run on this project's CPUs, and the command that fills their cells.
+CPU_COMMANDS = {
+    "bilevel_planning": "kinder bench run -a bilevel_planning -e <env> --seeds 0-4 --episodes 50",
+    "mpc": "kinder bench run -a mpc -e <env> --seeds 0-4 --episodes 50 "
+    "(replan_interval per env: kinder_bench/data/paper_settings.csv)",
+    "mbrl": "python benchmarks/mbrl.py --env <env> --epochs 1000 --seeds 0-4 --episodes 50 "
+    "--out runs/learning/mbrl",
+    "gsc": "kinder train gsc --env <env> --out runs/gsc/ckpt/<env>; then kinder bench run -a gsc "
+    "--arg checkpoint=runs/gsc/ckpt/<env> -e <env> --seeds 0-4 --episodes 50",
+    "ppo": "python benchmarks/rl_bench.py --algo ppo --env <env> --seeds 0-4 --steps 1000000 "
+    "--episodes 50 --out runs/rl",
+    "sac": "python benchmarks/rl_bench.py --algo sac --env <env> --seeds 0-4 --steps 1000000 "
+    "--episodes 50 --out runs/rl",
+}
 
 
 def summary_files(results_dir: Path | str) -> list[Path]:
@@ -56,18 +96,59 @@ def _extra_columns(path: Path) -> list[dict[str, str]]:
 
 
 def _committed_reason(agent: str, env_id: str) -> str:
-    """Why a paper cell has no committed result, independent of this machine (an agent's own
+    """Why a paper cell has no run of any kind, independent of this machine (an agent's own
     :meth:`~kinder_bench.agents.Agent.unavailable` depends on checkpoints, endpoints and GPUs
-    here, so the page would differ between machines)."""
+    here, so the page would differ between machines), with the command that fills it."""
     del env_id
     if agent not in AGENTS:
         return "the project has no such agent yet"
     if agent == "vla":
         return VLA_REASON
-    return (
-        "not in the committed results (`kinder agents` says whether it can run on your "
-        "machine, and what it needs)"
+    if agent in ("llm_plan", "vlm_plan", "llm_con", "vlm_con"):
+        return ENDPOINT_REASON
+    if agent in ("dp", "dpes"):
+        return DIFFUSION_REASON
+    command = CPU_COMMANDS.get(
+        agent, f"kinder bench run -a {agent} -e <env> --seeds 0-4 --episodes 50"
     )
+    return (
+        f"{agent} runs on CPU here but has not run at any protocol; its cost per episode on this "
+        f"machine is not measured (the paper's Inf-Time is in the cell): `{command}`"
+    )
+
+
+DEVIATIONS_FILE = "baseline_deviations.csv"
+_DEVIATION_COLUMNS = ("baseline", "what differs", "why", "expected effect")
+
+
+def load_deviations(text: str | None = None) -> list[dict[str, str]]:
+    """The rows of the baselines' deviations file (``#`` lines are comments); raises ValueError
+    when its header or a row is malformed."""
+    if text is None:
+        text = (
+            resources.files("kinder_bench.data")
+            .joinpath(DEVIATIONS_FILE)
+            .read_text(encoding="utf-8")
+        )
+    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
+    rows = list(csv.reader(lines))
+    if not rows or tuple(rows[0]) != _DEVIATION_COLUMNS:
+        raise ValueError(f"{DEVIATIONS_FILE}: expected the header {','.join(_DEVIATION_COLUMNS)}")
+    out = []
+    for n, row in enumerate(rows[1:], start=2):
+        if len(row) != len(_DEVIATION_COLUMNS) or not all(f.strip() for f in row):
+            raise ValueError(f"{DEVIATIONS_FILE}: row {n} needs 4 non-empty fields, got {row}")
+        out.append(dict(zip(_DEVIATION_COLUMNS, (f.strip() for f in row))))
+    return out
+
+
+def deviations_markdown(text: str | None = None) -> str:
+    """The deviations file as one markdown table."""
+    lines = ["| " + " | ".join(_DEVIATION_COLUMNS) + " |", "|---|---|---|---|"]
+    for row in load_deviations(text):
+        cells = (row[c].replace("|", "\\|") for c in _DEVIATION_COLUMNS)
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def _with_settings(result: Result, extra: dict[str, str]) -> Result:
@@ -108,11 +189,23 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
         "",
         "## Beside the paper",
         "",
-        "The paper's Table II layout (its eight benchmark envs and thirteen baselines, then "
-        "every other env and method we have results for). When a summary has several runs of "
-        "one agent on an env, the one with the most episodes is compared.",
+        "One rule fills the paper's Table II layout (its eight benchmark envs and thirteen "
+        "baselines): a cell holds our figure only when a run at the paper's protocol made it — "
+        "seeds 0–4 × 50 episodes, the paper's step budget, the baseline's paper settings and its "
+        "paper training budget (`kinder_bench/data/paper_settings.csv`), decided from the "
+        "settings each summary row records. Every other run is a variant, named by what "
+        "differs, in the rows under the table with its budget; `n/r` only where no run of any "
+        "kind exists, with why and the command that fills it. The first table counts the "
+        "paper's cells in each state.",
         "",
         paper_markdown(compare(everything, reason=_committed_reason)).rstrip("\n"),
+        "",
+        "## Deviations of the baselines from the paper",
+        "",
+        "What our implementation of each baseline does differently from the paper's, even at "
+        "the paper's protocol (`kinder_bench/data/baseline_deviations.csv`).",
+        "",
+        deviations_markdown().rstrip("\n"),
         "",
         "## Every committed result",
         "",
@@ -129,9 +222,9 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
         lines += [
             f"Source: [{path.name}]({rel}).",
             "",
-            "| env | method | seeds × episodes | SR ↑ | Rwd ↑ | Inf-Time (s) ↓ | errors "
-            "| command |",
-            "|---|---|---|---|---|---|---|---|",
+            "| env | run (named as beside the paper) | seeds × episodes | SR ↑ | Rwd ↑ "
+            "| Inf-Time (s) ↓ | errors | provenance | command |",
+            "|---|---|---|---|---|---|---|---|---|",
         ]
         for r in results:
             number = commands.setdefault(r.command, len(commands) + 1)
@@ -139,10 +232,11 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
                 fmt_stat(r.stat(m), metric_digits(m, r.stat(m))) for m in ("SR", "Rwd", "Inf-Time")
             ]
             per_seed = r.episodes // max(1, r.num_seeds)
+            where = r.provenance or "measured"
             lines.append(
-                f"| {r.env_id} | {r.name} | {r.num_seeds} × {per_seed} | "
+                f"| {r.env_id} | {variant_name(r)} | {r.num_seeds} × {per_seed} | "
                 + " | ".join(cells)
-                + f" | {r.errors} | [#{number}](#command-{number}) |"
+                + f" | {r.errors} | {where} | [#{number}](#command-{number}) |"
             )
         lines.append("")
     lines += ["## Commands", ""]

@@ -8,7 +8,10 @@ the seed and every method sees the same ones. The agent of that episode is seede
 independent of the executor, of the order episodes finish in, and of resuming.
 
 Every finished episode is appended as one JSON line to ``<run_dir>/results.jsonl`` (see the README
-for the schema) and ``<run_dir>/config.json`` records the runs and the package versions. Running
+for the schema) and ``<run_dir>/config.json`` records the runs and the package versions. When a
+run ends, its summary rows (one per env × method, with the command and the settings that decide
+whether it is at the paper's protocol) are written to ``<run_dir>/summary.csv``
+(:func:`write_summary`), the file ``benchmarks/results/*_summary.csv`` keeps for good. Running
 again with the same run directory skips the episodes already there. An exception in an episode
 (agent or env) is recorded as a failed episode with its error.
 """
@@ -34,8 +37,10 @@ import numpy as np
 from kinder_bench.agents import Agent, agent_class, args_to_dict, make_agent, make_args
 from kinder_bench.envs import default_max_steps, make_env, resolve_env_id, short_id
 from kinder_bench.executors import execute
+from kinder_bench.metrics import aggregate
 from kinder_bench.protocol import PAPER_EPISODES, PAPER_MAX_STEPS, PAPER_SEEDS
 from kinder_bench.recording import VIDEO_FORMATS, write_video
+from kinder_bench.report import CSV_FILE, csv_table, dedupe, run_commands
 from kinder_bench.results import (
     CONFIG_FILE,
     RESULTS_FILE,
@@ -46,6 +51,7 @@ from kinder_bench.results import (
     load_records,
     package_versions,
     write_json,
+    write_text,
 )
 
 #: Fields that are wall-clock measurements (everything else in a record is deterministic).
@@ -417,6 +423,7 @@ def run_benchmark(
             bar.set_postfix(success=f"{successes}/{len(new)}", refresh=False)
     finally:
         bar.close()
+    write_summary(run_dir)
     wanted = {t.key for t in tasks}
     records = [r for r in existing + new if (r["run_id"], r["seed"], r["episode"]) in wanted]
     return BenchOutcome(
@@ -425,6 +432,16 @@ def run_benchmark(
         num_ran=len(new),
         num_skipped=len(tasks) - len(pending),
     )
+
+
+def write_summary(run_dir: Path | str) -> Path | None:
+    """Write ``summary.csv`` (the report's summary rows, with each run's command) for every
+    episode of a run directory; None when it has no episodes yet."""
+    run_dir = Path(run_dir)
+    records = dedupe(load_records(run_dir / RESULTS_FILE))
+    if not records:
+        return None
+    return write_text(run_dir / CSV_FILE, csv_table(aggregate(records), run_commands([run_dir])))
 
 
 def _write_config(

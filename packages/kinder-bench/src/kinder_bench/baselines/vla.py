@@ -17,6 +17,13 @@ upstream KinDER's openpi bridge sends::
                      "state": float32 robot features},
      "prompt": the env's task, "batch_size": None}
 
+in 3D with ``cameras="all"`` (the default: the three cameras our openpi export,
+:mod:`kinder_gym.demos.openpi_format`, writes, so a policy trained on it sees at evaluation what it
+was trained on). Upstream's 3D evaluation sent the overview image only (baselines spec §3.5);
+``cameras="overview"`` does that, sending the overview camera as ``base_0_rgb`` and no wrist
+images. A run with ``cameras="all"`` in 3D is therefore a labelled variant of the paper's VLA
+(``kinder_bench/data/paper_settings.csv``); in 2D both send the one render.
+
 with the images, robot state and task text made exactly as the demonstration datasets make them
 (``camera_frames`` at ``image_size`` and ``StateSplit`` of :mod:`kinder_gym.demos.layout`,
 ``env_task`` of :mod:`kinder_gym.demos.lerobot_format`), so a policy sees at evaluation what it was
@@ -53,6 +60,9 @@ from kinder_gym.demos.lerobot_format import env_task
 
 FloatArray = NDArray[np.float64]
 
+#: The values of :attr:`VLAArgs.cameras`.
+CAMERA_MODES = ("all", "overview")
+
 
 @dataclasses.dataclass(frozen=True)
 class VLAArgs:
@@ -70,8 +80,14 @@ class VLAArgs:
     """The language instruction; empty: the env's task description."""
     api_key: str = ""
     """Sent as ``Authorization: Api-Key ...`` when non-empty."""
+    cameras: str = "all"
+    """3D images sent: ``all`` (base, wrist and overview, as our openpi export writes them) or
+    ``overview`` (the overview image only, as upstream's 3D evaluation; see the module
+    docstring)."""
 
     def __post_init__(self) -> None:
+        if self.cameras not in CAMERA_MODES:
+            raise ValueError(f"cameras must be one of {CAMERA_MODES}, got {self.cameras!r}")
         if self.action_horizon < 1:
             raise ValueError(f"action_horizon must be >= 1, got {self.action_horizon}")
         if self.image_size < 8:
@@ -134,6 +150,8 @@ class VLAAgent(Agent[VLAArgs]):
         }
         if "render" in views:
             observation["base_0_rgb"] = views["render"]
+        elif self.args.cameras == "overview":
+            observation["base_0_rgb"] = views["overview"]
         else:
             observation["base_0_rgb"] = views["base"]
             observation["left_wrist_0_rgb"] = views["wrist"]

@@ -96,6 +96,9 @@ class FMPlanArgs:
     """Retries on rate limits, timeouts and server errors."""
     backoff: float = 2.0
     """Seconds before the first retry (doubled after each)."""
+    parameter_lines: bool = False
+    """Add a line per skill saying what its parameters mean (a labelled variant: the paper's
+    template has no such line, and runs with it never fill the paper's column)."""
 
     def __post_init__(self) -> None:
         checks = [
@@ -195,7 +198,13 @@ class FMPlanningAgent(Agent[FMPlanArgs]):
     # -- episode -----------------------------------------------------------------------------------
     def prompt_messages(self, state: ObjectCentricState) -> tuple[str, list[dict[str, Any]]]:
         """The prompt text and the chat messages for an initial state."""
-        prompt = build_prompt(self.model, self.planning_model, state, self.examples_text)
+        prompt = build_prompt(
+            self.model,
+            self.planning_model,
+            state,
+            self.examples_text,
+            parameter_lines=self.args.parameter_lines,
+        )
         image = png_data_url(self.model.render_state(state)) if self.use_image else None
         return prompt, [user_message(prompt, image)]
 

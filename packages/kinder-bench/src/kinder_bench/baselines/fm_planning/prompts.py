@@ -5,10 +5,12 @@ appendix templates (Figures "LLMPlan prompt template" and "LLMCon prompt templat
 ``str.format``:
 
 * ``{controllers}``: one entry per skill of the env's :class:`~kinder_gym.model.PlanningModel`,
-  ``Name(types=[t1, t2]), params_space=Box([lows], [highs], (n,), float64)`` as upstream, followed
-  by an indented ``parameters:`` line with the skill's ``params_doc`` (what each number means, with
-  units). The upstream prompt had no such line; its hand-written in-context examples explained the
-  parameters instead, which LLMPlan never saw.
+  ``Name(types=[t1, t2]), params_space=Box([lows], [highs], (n,), float64)`` as upstream. With
+  ``parameter_lines`` (a labelled variant, off by default) each entry is followed by an indented
+  ``parameters:`` line with the skill's ``params_doc`` (what each number means, with units). The
+  paper's template has no such line: its in-context examples explain the parameters, which
+  LLMPlan and VLMPlan never see, so the paper's finding that examples matter shows only without
+  the line.
 * ``{typed_objects}``: ``name: type`` per object of the initial state.
 * ``{type_hierarchy}``: PDDL style, ``child1 child2 - parent`` per parent, then the root types
   that have no children, one per line.
@@ -125,19 +127,22 @@ def _num(x: float) -> str:
     return repr(round(float(x), 4))
 
 
-def format_controllers(model: PlanningModel) -> str:
-    """The ``{controllers}`` block (see the module docstring)."""
+def format_controllers(model: PlanningModel, parameter_lines: bool = False) -> str:
+    """The ``{controllers}`` block (see the module docstring); ``parameter_lines`` adds what each
+    skill's parameters mean (our variant; the paper's template has no such line)."""
     out = []
     for s in model.skills:
         box = s.params_space
         types = ", ".join(v.type.name for v in s.operator.parameters)
         low = ", ".join(_num(x) for x in box.low)
         high = ", ".join(_num(x) for x in box.high)
-        out.append(
+        entry = (
             f"{s.name}(types=[{types}]), params_space=Box([{low}], [{high}], "
-            f"({box.shape[0]},), {np.dtype(box.dtype).name})\n"
-            f"    parameters: {' '.join(s.controller_cls.params_doc.split())}"
+            f"({box.shape[0]},), {np.dtype(box.dtype).name})"
         )
+        if parameter_lines:
+            entry += f"\n    parameters: {' '.join(s.controller_cls.params_doc.split())}"
+        out.append(entry)
     return "\n".join(out)
 
 
@@ -197,10 +202,12 @@ def build_prompt(
     model: PlanningModel,
     state: ObjectCentricState,
     in_context_examples: str | None = None,
+    parameter_lines: bool = False,
 ) -> str:
-    """The prompt for ``state``: the Plan template, or the Con template with examples."""
+    """The prompt for ``state``: the Plan template, or the Con template with examples
+    (``parameter_lines``: see :func:`format_controllers`)."""
     fields: dict[str, str] = {
-        "controllers": format_controllers(model),
+        "controllers": format_controllers(model, parameter_lines),
         "typed_objects": format_typed_objects(state),
         "type_hierarchy": format_type_hierarchy([*model.types, *(o.type for o in state.objects)]),
         "goal_str": goal_string(env),
