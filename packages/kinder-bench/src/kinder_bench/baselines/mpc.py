@@ -22,20 +22,43 @@ The first action of the best candidate is executed; the agent solves again every
 The rollout model is pluggable: :meth:`MPCAgent.transition` (default: the env's ``transition``)
 and :meth:`MPCAgent.planning_state` (default: the observation as a model state) are what the
 MBRL baseline (:mod:`kinder_bench.baselines.mbrl`) overrides to plan on a learned model.
+
+**Fast rollouts** (``batched=True``, the default; the costs, hence every action, are exactly the
+plain loop's): a solve scores its candidates through :meth:`MPCAgent.fast_model` when there is
+one, a :class:`RolloutModel` that rolls all candidates out together:
+
+* Kinematic2D families with a batched world (Motion2D, Obstruction2D, ClutteredRetrieval2D,
+  ClutteredStorage2D; :mod:`kinder_garden2d.kinematic2d.batched`, bit-for-bit the single env's
+  transition and goal) step all candidates in lockstep as one ``(N, D)`` array
+  (:class:`BatchedWorldRollouts`).
+* Dynamic3D (MuJoCo) rolls each candidate out on its own copy of the env in a thread pool
+  (:class:`ThreadedCloneRollouts`): MuJoCo's ``mj_step`` releases the GIL, so the candidates'
+  physics runs on as many cores as there are. ``mujoco.rollout`` is not used: it returns the
+  physics state without the solver's warm start (``qacc_warmstart``), which this env's states
+  carry from step to step, so chaining its one-step rollouts would not reproduce ``transition``.
+* Every other env (StickButton2D, Dynamic2D, Kinematic3D) keeps the plain loop.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+import os
+import pickle
+import sys
+import weakref
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Protocol
 
 import gymnasium
 import numpy as np
 from numpy.typing import NDArray
 
 from kinder_bench.agents.base import Agent
+from kinder_core import ObjectCentricEnv, ObjectCentricState
 
 FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,6 +77,11 @@ class MPCArgs:
     """Start each solve from the previous best shifted forward (else from fresh random points)."""
     replan_interval: int = 1
     """Solve every this many env steps; in between, execute the stored best sequence."""
+    batched: bool = True
+    """Roll the candidates out together where the model allows it (same costs, so same actions,
+    as the plain one-by-one loop; see the module docstring)."""
+    rollout_threads: int = 0
+    """Threads of the Dynamic3D fast path (0: one per CPU core, at most one per candidate)."""
 
     def __post_init__(self) -> None:
         checks = [
@@ -62,6 +90,7 @@ class MPCArgs:
             (self.noise_fraction >= 0, "noise_fraction must be >= 0"),
             (self.num_control_points >= 2, "num_control_points must be >= 2"),
             (1 <= self.replan_interval <= self.horizon, "replan_interval must be in [1, horizon]"),
+            (self.rollout_threads >= 0, "rollout_threads must be >= 0"),
         ]
         for ok, msg in checks:
             if not ok:
@@ -74,6 +103,169 @@ def interpolation_matrix(knot_times: FloatArray, times: FloatArray) -> FloatArra
     eye = np.eye(len(knot_times))
     columns = [np.interp(times, knot_times, eye[k]) for k in range(len(knot_times))]
     return np.stack(columns, axis=1).astype(np.float64)
+
+
+class RolloutModel(Protocol):
+    """Scores many candidate action sequences from one start state at once."""
+
+    def costs(self, state: Any, plans: FloatArray) -> tuple[FloatArray, int]:
+        """``(costs, model_steps)``: for every plan of ``plans`` ``(N, H, A)`` rolled out from
+        ``state``, −(sum of rewards up to and including the first terminating step), and the
+        number of model steps taken (a rollout stops at its first terminating step)."""
+        ...
+
+
+#: One lockstep step: states ``(N, D)`` and actions ``(N, A)`` to next states, rewards ``(N,)``
+#: and terminated flags ``(N,)``.
+BatchStep = Callable[[FloatArray, FloatArray], tuple[FloatArray, FloatArray, BoolArray]]
+
+
+def lockstep_costs(step: BatchStep, start: FloatArray, plans: FloatArray) -> tuple[FloatArray, int]:
+    """Roll every plan out from ``start`` ``(D,)`` in lockstep (see :class:`RolloutModel`).
+
+    Rollouts that terminated are dropped from the batch, so each plan's cost sums exactly the
+    rewards the plain one-by-one loop sums, in the same order.
+    """
+    n, horizon = plans.shape[:2]
+    costs = np.zeros(n)
+    rows = np.arange(n)
+    states = np.repeat(start[None], n, axis=0)
+    steps = 0
+    for t in range(horizon):
+        states, rewards, terminated = step(states, plans[rows, t])
+        costs[rows] -= rewards
+        steps += len(rows)
+        keep = ~terminated
+        rows, states = rows[keep], states[keep]
+        if not rows.size:
+            break
+    return costs, steps
+
+
+def _instance_of(obj: object, module: str, name: str) -> bool:
+    """``isinstance(obj, module.name)`` without importing ``module`` (an env of that class has
+    imported it already)."""
+    cls = getattr(sys.modules.get(module), name, None)
+    return isinstance(cls, type) and isinstance(obj, cls)
+
+
+_STATIC_TABLES = ("static_obbs", "static_circles", "static_obb_aabb", "static_circ_aabb")
+
+
+class BatchedWorldRollouts:
+    """Candidates of a Kinematic2D env stepped together on its family's batched world (whose
+    transition, goal and −1 reward equal the single env's bit for bit)."""
+
+    def __init__(self, world: Any, low: FloatArray, high: FloatArray) -> None:
+        self.world = world
+        self._low, self._high = low, high
+
+    def costs(self, state: Any, plans: FloatArray) -> tuple[FloatArray, int]:
+        if not isinstance(state, ObjectCentricState):
+            raise TypeError(f"BatchedWorldRollouts needs an ObjectCentricState, got {state!r}")
+        world = self.world
+        # Static bodies are the same for every candidate: build them once for row 0, then give
+        # the world as many identical rows as there are live rollouts at each step.
+        world.allocate(1)
+        world.load_statics(np.zeros(1, dtype=np.intp), state.data[None])
+        tables = {name: getattr(world, name) for name in _STATIC_TABLES}
+
+        def step(data: FloatArray, actions: FloatArray) -> tuple[FloatArray, FloatArray, BoolArray]:
+            for name, table in tables.items():
+                setattr(world, name, np.repeat(table, len(data), axis=0))
+            nxt: FloatArray = world.transition(data, np.clip(actions, self._low, self._high))
+            terminated: BoolArray = world.goal(nxt)
+            rewards: FloatArray = world.reward(terminated)
+            return nxt, rewards, terminated
+
+        return lockstep_costs(step, state.data, plans)
+
+
+class _ClonePool:
+    """Copies of one env (rebuilt from its pickle) and the threads that roll them out."""
+
+    def __init__(self, env: ObjectCentricEnv) -> None:
+        self.env = env
+        self.clones: list[ObjectCentricEnv] = []
+        self.pool: ThreadPoolExecutor | None = None
+        self.threads = 1
+
+    def ensure(self, clones: int, threads: int) -> None:
+        """At least ``clones`` copies and a pool of exactly ``threads`` threads."""
+        while len(self.clones) < clones:
+            clone = pickle.loads(pickle.dumps(self.env))
+            assert isinstance(clone, ObjectCentricEnv)
+            self.clones.append(clone)
+        if threads != self.threads:
+            if self.pool is not None:
+                self.pool.shutdown()
+            self.pool = ThreadPoolExecutor(threads) if threads > 1 else None
+            self.threads = threads
+
+
+#: Per env, the copies the Dynamic3D fast path rolls candidates out on (kept while the env lives,
+#: so that the agents the runner makes afresh every episode reuse them).
+_POOLS: weakref.WeakKeyDictionary[ObjectCentricEnv, _ClonePool] = weakref.WeakKeyDictionary()
+
+
+class ThreadedCloneRollouts:
+    """Each candidate rolled out on its own copy of the env, the copies in a thread pool.
+
+    A copy is the env rebuilt from its pickle (same configuration, same MuJoCo model), and its
+    ``transition`` is the env's own, so every cost equals the plain loop's; only the wall-clock
+    time changes, because MuJoCo's ``mj_step`` releases the GIL.
+    """
+
+    def __init__(self, env: ObjectCentricEnv, num_rollouts: int, threads: int) -> None:
+        pool = _POOLS.get(env)
+        if pool is None:
+            pool = _POOLS[env] = _ClonePool(env)
+        self._pool = pool
+        self.threads = max(1, min(threads or (os.cpu_count() or 1), num_rollouts))
+        self._pool.ensure(num_rollouts, self.threads)
+
+    def costs(self, state: Any, plans: FloatArray) -> tuple[FloatArray, int]:
+        clones = self._pool.clones
+
+        def one(i: int) -> tuple[float, int]:
+            return plain_cost(clones[i].transition, state, plans[i])
+
+        jobs = range(len(plans))
+        pool = self._pool.pool
+        results = list(pool.map(one, jobs) if pool is not None else map(one, jobs))
+        return np.array([c for c, _ in results]), sum(k for _, k in results)
+
+
+def plain_cost(
+    transition: Callable[[Any, FloatArray], tuple[Any, float, bool]],
+    state: Any,
+    plan: FloatArray,
+) -> tuple[float, int]:
+    """``(cost, model_steps)`` of one plan rolled out step by step on ``transition``."""
+    cost = 0.0
+    for t, action in enumerate(plan):
+        state, reward, terminated = transition(state, action)
+        cost -= reward
+        if terminated:
+            return cost, t + 1
+    return cost, len(plan)
+
+
+def env_fast_model(
+    env: ObjectCentricEnv, args: MPCArgs, low: FloatArray, high: FloatArray
+) -> RolloutModel | None:
+    """The fast rollout model of an env (see the module docstring), or None (plain loop)."""
+    if _instance_of(env, "kinder_garden3d.dynamic3d.env", "Dynamic3DEnv"):
+        return ThreadedCloneRollouts(env, args.num_rollouts, args.rollout_threads)
+    if _instance_of(env, "kinder_garden2d.kinematic2d.base", "Kinematic2DEnv"):
+        from kinder_garden2d.kinematic2d.batched.families import batched_world
+
+        try:
+            world = batched_world(env)  # type: ignore[arg-type]
+        except ValueError:  # a family without a batched world
+            return None
+        return BatchedWorldRollouts(world, low, high)
+    return None
 
 
 class MPCAgent(Agent[MPCArgs]):
@@ -94,6 +286,7 @@ class MPCAgent(Agent[MPCArgs]):
         self._knots = np.linspace(0.0, float(h), k)
         self._weights = interpolation_matrix(self._knots, np.arange(h, dtype=np.float64))
         self._model = self.model
+        self._fast = self.fast_model() if args.batched else None
         self._solution: FloatArray | None = None  # control points of the best candidate
         self._plan: FloatArray | None = None  # its actions, one per step
         self._since_solve = 0
@@ -123,6 +316,19 @@ class MPCAgent(Agent[MPCArgs]):
         ``transition``. Subclasses plug in a learned model here (MBRL)."""
         return self._model.transition(state, action)
 
+    def fast_model(self) -> RolloutModel | None:
+        """What scores the candidates all at once with the same costs as :meth:`transition`'s
+        one-by-one loop, or None (the plain loop). Subclasses with another model override it."""
+        return env_fast_model(self._model, self.args, self._low, self._high)
+
+    def rollout_costs(self, state: Any, plans: FloatArray) -> FloatArray:
+        """The cost of every plan ``(N, H, A)`` from ``state`` (fast model or plain loop)."""
+        if self._fast is not None:
+            costs, steps = self._fast.costs(state, plans)
+            self.num_model_steps += steps
+            return costs
+        return np.array([self._rollout_cost(state, plan) for plan in plans])
+
     def _nominal(self) -> FloatArray:
         a, shift = self.args, self._since_solve
         if a.warm_start and self._solution is not None and shift < a.horizon:
@@ -138,7 +344,7 @@ class MPCAgent(Agent[MPCArgs]):
             np.concatenate([nominal[None], nominal[None] + noise]), self._low, self._high
         )
         plans = np.einsum("hk,nka->nha", self._weights, candidates)
-        costs = np.array([self._rollout_cost(state, plan) for plan in plans])
+        costs = self.rollout_costs(state, plans)
         best = int(np.argmin(costs))  # first minimum: ties keep the nominal
         self._solution = candidates[best]
         self._plan = plans[best]
@@ -146,13 +352,6 @@ class MPCAgent(Agent[MPCArgs]):
         self.num_solves += 1
 
     def _rollout_cost(self, state: Any, plan: FloatArray) -> float:
-        cost = 0.0
-        transition = self.transition
-        for t, action in enumerate(plan):
-            state, reward, terminated = transition(state, action)
-            cost -= reward
-            if terminated:
-                self.num_model_steps += t + 1
-                return cost
-        self.num_model_steps += len(plan)
+        cost, steps = plain_cost(self.transition, state, plan)
+        self.num_model_steps += steps
         return cost
