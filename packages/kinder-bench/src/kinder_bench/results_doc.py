@@ -21,15 +21,18 @@ from __future__ import annotations
 import csv
 import dataclasses
 import os
-from collections.abc import Sequence
+import re
+from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
 
 from kinder_bench.agents import AGENTS
+from kinder_bench.envs import short_id
 from kinder_bench.paper import (
     Result,
     compare,
     fmt_stat,
+    load_paper,
     metric_digits,
     paper_markdown,
     results_from_csv,
@@ -243,3 +246,154 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
     for command, number in commands.items():
         lines += [f'<a id="command-{number}"></a>**#{number}**', "", "```bash", command, "```", ""]
     return "\n".join(lines).rstrip("\n") + "\n"
+
+
+# -- the guard: no success rate lives only in prose ------------------------------------------------
+
+#: A success-rate figure as printed: ``0.27``, ``**0.27 ± 0.07**``, ``1.00 ± 0.000``.
+_FIGURE = re.compile(r"\*{0,2}\b([01]\.\d{2})(?: ± \d\.\d{2,4})?\b\*{0,2}")
+#: A prose quote: ``SR`` then, within the same clause, a figure.
+_PROSE_SR = re.compile(r"\bSR\b[^.;:\n|]{0,40}?(?<![\d.])([01]\.\d{2})(?![\d])")
+#: Words that label a figure as the paper's (allowed without a summary row of ours).
+_PAPER_WORDS = ("paper", "upstream")
+
+
+@dataclasses.dataclass(frozen=True)
+class Quote:
+    """A success rate a results page quotes, and what it is tied to."""
+
+    page: str
+    line: int
+    figure: str
+    env_ids: frozenset[str]
+    methods: frozenset[str]
+    """Agent names the quote's context names (empty: none named)."""
+
+    def __str__(self) -> str:
+        methods = ", ".join(sorted(self.methods)) or "any method"
+        envs = ", ".join(sorted(short_id(e) for e in self.env_ids))
+        return f"{self.page}:{self.line}: SR {self.figure} of {methods} on {envs}"
+
+
+def _method_names(results: Sequence[Result]) -> dict[str, str]:
+    """Name as a page may write it (lower case) → agent: agent names, the paper's method names
+    and every label in the summaries (``ppo-dense``)."""
+    names = {a.lower(): a for a in AGENTS}
+    names.update({m.lower(): a for m, a in load_paper().agents.items()})
+    names.update({r.method.lower(): r.agent for r in results})
+    names.update({"bilevel planning": "bilevel_planning", "bilevel planner": "bilevel_planning"})
+    return names
+
+
+def _named(text: str, names: Mapping[str, str]) -> set[str]:
+    low = text.lower()
+    return {
+        agent
+        for name, agent in names.items()
+        if re.search(rf"(?<![\w-]){re.escape(name)}(?![\w-])", low)
+    }
+
+
+def _envs_in(text: str, env_ids: Sequence[str]) -> set[str]:
+    """The env ids a text names, by full id or short name (``Motion2D-p0``)."""
+    out = set()
+    for env_id in env_ids:
+        short = short_id(env_id)
+        if env_id in text or re.search(rf"(?<![\w-]){re.escape(short)}(?![\w-]*\w)", text):
+            out.add(env_id)
+    return out
+
+
+def _cells(line: str) -> list[str]:
+    return [c.strip() for c in line.strip().strip("|").split("|")]
+
+
+def _is_paper(text: str) -> bool:
+    low = text.lower()
+    return any(word in low for word in _PAPER_WORDS)
+
+
+def sr_quotes(
+    page: str, text: str, env_ids: Sequence[str], names: Mapping[str, str]
+) -> list[Quote]:
+    """Every success rate ``text`` quotes of ours, tied to the envs and methods its context
+    names: the ``SR`` cells of tables (the report's ``| Env | Metric |`` layout, or a column
+    whose header starts with ``SR``), and ``SR 0.xx`` in prose. A figure is tied to the envs its
+    row (or line) names — a table row of the report's layout inherits its env from the row above
+    — and to the methods its column header, its row, or else the nearest heading names. Figures
+    labelled as the paper's or upstream's (in the column header, or within the clause before a
+    prose figure) are not ours and are left out, and so is a ``(paper)`` figure after ours."""
+    quotes: list[Quote] = []
+    header: list[str] | None = None
+    heading = ""
+    row_envs: set[str] = set()
+    for n, line in enumerate(text.splitlines(), start=1):
+        if line.startswith("#"):
+            heading = line
+        if not line.startswith("|"):
+            header = None
+            for m in _PROSE_SR.finditer(line):
+                before = line[max(0, m.start() - 30) : m.start(1)]
+                if _is_paper(before):
+                    continue
+                envs = _envs_in(line, env_ids) or _envs_in(heading, env_ids)
+                methods = _named(line, names) or _named(heading, names)
+                if envs:
+                    quotes.append(Quote(page, n, m.group(1), frozenset(envs), frozenset(methods)))
+            continue
+        cells = _cells(line)
+        if header is None:
+            header = cells
+            continue
+        if set(line.replace("|", "").strip()) <= set("-: "):
+            continue
+        report_layout = len(header) > 2 and header[1].lower() == "metric"
+        if report_layout:
+            if cells[0]:
+                row_envs = _envs_in(cells[0], env_ids)
+            if not cells[1].startswith("SR"):
+                continue
+            columns = list(zip(header[2:], cells[2:]))
+            envs = row_envs
+        else:
+            columns = [(h, c) for h, c in zip(header, cells) if h.startswith("SR")]
+            envs = _envs_in(" ".join(cells), env_ids)
+        for head, cell in columns:
+            ours = cell.split(" (")[0].strip()
+            m = _FIGURE.fullmatch(ours)
+            if m is None or _is_paper(head) or not envs:
+                continue
+            methods = _named(head, names)
+            if report_layout and not methods:
+                # The report's column header is the method's label, known or not.
+                methods = {head.strip("* ").lower()}
+            methods = (
+                methods
+                or _named(" ".join(cells), names)
+                or _named(heading, names)
+                or _named(page, names)
+            )
+            quotes.append(Quote(page, n, m.group(1), frozenset(envs), frozenset(methods)))
+    return quotes
+
+
+def unbacked_quotes(
+    pages: Mapping[str, str], results: Sequence[Result], extra_envs: Sequence[str] = ()
+) -> list[Quote]:
+    """The quotes of ``pages`` (name → text) for a (method, env) that no summary row holds: no
+    row of that env by one of the named methods (an agent, or a row's label such as
+    ``ppo-dense``; any method when the context names none)."""
+    names = _method_names(results)
+    env_ids = sorted({r.env_id for r in results} | set(load_paper().envs) | set(extra_envs))
+    held = {(r.env_id, r.agent) for r in results} | {(r.env_id, r.method.lower()) for r in results}
+    held_envs = {r.env_id for r in results}
+    bad = []
+    for page, text in pages.items():
+        for q in sr_quotes(page, text, env_ids, names):
+            if q.methods:
+                ok = any((e, m) in held for e in q.env_ids for m in q.methods)
+            else:
+                ok = bool(q.env_ids & held_envs)
+            if not ok:
+                bad.append(q)
+    return bad
