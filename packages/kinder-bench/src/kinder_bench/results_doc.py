@@ -339,7 +339,9 @@ def sr_quotes(
                 envs = _envs_in(line, env_ids) or _envs_in(heading, env_ids)
                 methods = _named(line, names) or _named(heading, names)
                 if envs:
-                    quotes.append(Quote(page, n, m.group(1), frozenset(envs), frozenset(methods)))
+                    quotes.append(
+                        Quote(page, n, figure.group(1), frozenset(envs), frozenset(methods))
+                    )
             continue
         cells = _cells(line)
         if header is None:
@@ -359,9 +361,8 @@ def sr_quotes(
             columns = [(h, c) for h, c in zip(header, cells) if h.startswith("SR")]
             envs = _envs_in(" ".join(cells), env_ids)
         for head, cell in columns:
-            ours = cell.split(" (")[0].strip()
-            m = _FIGURE.fullmatch(ours)
-            if m is None or _is_paper(head) or not envs:
+            figure = _FIGURE.fullmatch(cell.split(" (")[0].strip())
+            if figure is None or _is_paper(head) or not envs:
                 continue
             methods = _named(head, names)
             if report_layout and not methods:
@@ -373,7 +374,7 @@ def sr_quotes(
                 or _named(heading, names)
                 or _named(page, names)
             )
-            quotes.append(Quote(page, n, m.group(1), frozenset(envs), frozenset(methods)))
+            quotes.append(Quote(page, n, figure.group(1), frozenset(envs), frozenset(methods)))
     return quotes
 
 
