@@ -165,11 +165,12 @@ class KinRobotConfig(Dynamic2DConfig):
         return vals
 
 
-def upstream_walls(cfg: KinRobotConfig) -> list[tuple[str, float, float, float, float]]:
-    """Upstream's four room walls as (name, x, y, width, height), centred boxes just outside the
-    world, as thick as twice the largest base step."""
+def upstream_walls(
+    cfg: Dynamic2DConfig, dx: float, dy: float
+) -> list[tuple[str, float, float, float, float]]:
+    """Upstream's four room walls as (name, x, y, width, height): centred boxes just outside the
+    world, as thick as twice the largest base step (``dx``, ``dy``)."""
     x0, x1, y0, y1 = cfg.world_min_x, cfg.world_max_x, cfg.world_min_y, cfg.world_max_y
-    dx, dy = cfg.max_dx, cfg.max_dy
     side_h = y1 - y0
     horiz_w = 2 * 2 * abs(-dx) + x1 - x0
     return [

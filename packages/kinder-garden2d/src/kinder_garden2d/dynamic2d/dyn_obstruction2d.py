@@ -266,7 +266,7 @@ class DynObstruction2DEnv(Dynamic2DEnv):
         cfg = self.config
         boxes = [
             StaticBox(x - w / 2, x + w / 2, y - h / 2, y + h / 2)
-            for _, x, y, w, h in upstream_walls(cfg)
+            for _, x, y, w, h in upstream_walls(cfg, cfg.max_dx, cfg.max_dy)
         ]
         boxes.append(StaticBox(cfg.world_min_x, cfg.world_max_x, 0.0, cfg.table_height))
         return boxes
@@ -291,7 +291,7 @@ class DynObstruction2DEnv(Dynamic2DEnv):
         cfg = self.config
         specs = [
             BodySpec(name, None, static_rect(x, y, 0.0, w, h))
-            for name, x, y, w, h in upstream_walls(cfg)
+            for name, x, y, w, h in upstream_walls(cfg, cfg.max_dx, cfg.max_dy)
         ]
         w_world = cfg.world_max_x - cfg.world_min_x
         specs.append(

@@ -205,7 +205,7 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
         robot_shape = kin_robot_geometry([robot[f] for f in ot.KIN_ROBOT_FEATURES]).shape
         walls = [
             WorldShape((box(x - w / 2, x + w / 2, y - h / 2, y + h / 2),))
-            for _, x, y, w, h in upstream_walls(cfg)
+            for _, x, y, w, h in upstream_walls(cfg, cfg.max_dx, cfg.max_dy)
         ]
         tries = cfg.max_reset_tries
         for _ in range(tries):
@@ -270,7 +270,7 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
         cfg = self.config
         specs = [
             BodySpec(name, None, static_rect(x, y, 0.0, w, h))
-            for name, x, y, w, h in upstream_walls(cfg)
+            for name, x, y, w, h in upstream_walls(cfg, cfg.max_dx, cfg.max_dy)
         ]
         specs.append(
             BodySpec(
@@ -287,11 +287,11 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
         )
         h = state[self.hook]
         specs.append(
-            BodySpec("hook", self.hook, dynamic_lobject(h, h[12], h[13], h[14], h[15]), True)
+            BodySpec("hook", self.hook, dynamic_lobject(h, h[12], h[13], h[14], h[15]), "wrap")
         )
         for obj in (self.target_block, *self.obstructions):
             f = state[obj]
-            specs.append(BodySpec(obj.name, obj, dynamic_rect(f, f[12], f[13], f[14]), True))
+            specs.append(BodySpec(obj.name, obj, dynamic_rect(f, f[12], f[13], f[14]), "wrap"))
         return specs
 
     def goal_reached(self, state: ObjectCentricState) -> bool:

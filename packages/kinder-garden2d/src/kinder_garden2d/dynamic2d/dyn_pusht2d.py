@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -17,16 +18,18 @@ from kinder_garden2d.dynamic2d.base_env import (
     Dynamic2DEnv,
     object_values,
     resolve_config,
-    uniform,
+    upstream_walls,
 )
 from kinder_garden2d.dynamic2d.geometry import (
     WorldShape,
+    box,
     circle_shape,
     overlaps,
     place,
     tobject_shape,
     wrap_angle,
 )
+from kinder_garden2d.dynamic2d.pd_physics import BodySpec, PDSettings, static_rect, tblock
 from kinder_garden2d.dynamic2d.physics import Scene
 from kinder_garden2d.rendering import Canvas
 
@@ -51,6 +54,10 @@ class DynPushT2DConfig(Dynamic2DConfig):
     goal_position_tolerance: float = 0.03
     goal_angle_tolerance: float = math.radians(8.0)
     settle_max_seconds: float = 0.0
+    init_robot_pos: tuple[float, float] = (1.0, 1.0)  # where upstream creates the robot's body
+    robot_color: tuple[float, float, float] = (50 / 255, 50 / 255, 1.0)
+    tee_color: tuple[float, float, float] = (0.5, 0.5, 0.5)
+    goal_color: tuple[float, float, float] = (0.5, 1.0, 0.5)
 
 
 class DynPushT2DEnv(Dynamic2DEnv):
@@ -109,6 +116,8 @@ class DynPushT2DEnv(Dynamic2DEnv):
     * v0: initial version.
     """
 
+    has_pd = True
+
     def __init__(
         self,
         num_tee: int = 1,
@@ -138,41 +147,71 @@ class DynPushT2DEnv(Dynamic2DEnv):
         return [self.tblock, self.robot, self.goal_tblock]
 
     def _sample_unsettled(self, rng: np.random.Generator) -> ObjectCentricState:
+        """One candidate scene drawn as upstream draws it (see :meth:`_sample_initial_state`)."""
         cfg = self.config
-        lo, hi = np.zeros(2), np.array([cfg.world_max_x, cfg.world_max_y])
-        for _ in range(cfg.max_reset_tries):
-            w = uniform(rng, *cfg.tee_width)
-            lh = uniform(rng, *cfg.tee_length_horizontal)
-            lv = uniform(rng, *cfg.tee_length_vertical)
-            geom = dict(width=w, length_horizontal=lh, length_vertical=lv, mass=cfg.tee_mass)
-            tx, ty = uniform(rng, *cfg.tee_init), uniform(rng, *cfg.tee_init)
-            tth = uniform(rng, -math.pi, math.pi)
-            gx, gy = uniform(rng, *cfg.tee_init), uniform(rng, *cfg.tee_init)
-            gth = uniform(rng, -math.pi, math.pi)
-            rx, ry = uniform(rng, *cfg.robot_init), uniform(rng, *cfg.robot_init)
-            state = ObjectCentricState.from_features(
-                {
-                    self.tblock: object_values(tx, ty, tth, ot.GREY, ot.Z_ALL, **geom),
-                    self.goal_tblock: object_values(
-                        gx, gy, gth, ot.LIGHT_GREEN, ot.Z_FLOOR, static=True, **geom
-                    ),
-                    self.robot: object_values(
-                        rx, ry, 0.0, (0.3, 0.3, 0.9), ot.Z_ALL, radius=cfg.robot_radius
-                    ),
-                }
-            )
-            tee = tobject_shape(w, lh, lv)
-            block, goal = place(tee, tx, ty, tth), place(tee, gx, gy, gth)
-            robot = place(circle_shape(cfg.robot_radius), rx, ry, 0.0)
-            if overlaps(robot, block) or self.goal_reached(state):
-                continue
-            if not (_inside(block, lo, hi) and _inside(goal, lo, hi)):
-                continue
-            return state
-        raise RuntimeError(
-            f"DynPushT2D: could not place the T block, the goal and the robot in "
-            f"{cfg.max_reset_tries} tries"
+        rx = rng.uniform(cfg.robot_init[0], cfg.robot_init[1])
+        ry = rng.uniform(cfg.robot_init[0], cfg.robot_init[1])
+        rng.uniform(0.0, 0.0)  # upstream draws the dot robot's (fixed) angle too
+        tx = rng.uniform(cfg.tee_init[0], cfg.tee_init[1])
+        ty = rng.uniform(cfg.tee_init[0], cfg.tee_init[1])
+        tth = rng.uniform(-np.pi, np.pi)
+        w = rng.uniform(*cfg.tee_width)
+        lh = rng.uniform(*cfg.tee_length_horizontal)
+        lv = rng.uniform(*cfg.tee_length_vertical)
+        gx = rng.uniform(cfg.tee_init[0], cfg.tee_init[1])
+        gy = rng.uniform(cfg.tee_init[0], cfg.tee_init[1])
+        gth = rng.uniform(-np.pi, np.pi)
+        geom = dict(width=w, length_horizontal=lh, length_vertical=lv, mass=cfg.tee_mass)
+        return ObjectCentricState.from_features(
+            {
+                self.tblock: object_values(tx, ty, tth, cfg.tee_color, ot.Z_SURFACE, **geom),
+                self.goal_tblock: object_values(
+                    gx, gy, gth, cfg.goal_color, ot.Z_FLOOR, static=True, **geom
+                ),
+                self.robot: object_values(
+                    rx, ry, 0.0, cfg.robot_color, ot.Z_ALL, radius=cfg.robot_radius
+                ),
+            }
         )
+
+    def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
+        """Upstream's rejection sampling: the robot overlaps neither the block, the goal outline
+        nor a wall, the block no wall, and the block would fit at the goal pose; then upstream's
+        settling."""
+        cfg = self.config
+        walls = [
+            WorldShape((box(x - w / 2, x + w / 2, y - h / 2, y + h / 2),))
+            for _, x, y, w, h in upstream_walls(cfg, cfg.max_dx, cfg.max_dy)
+        ]
+        for _ in range(cfg.max_reset_tries):
+            state = self._sample_unsettled(rng)
+            t, g, r = state[self.tblock], state[self.goal_tblock], state[self.robot]
+            tee = tobject_shape(float(t[12]), float(t[13]), float(t[14]))
+            block = place(tee, float(t[0]), float(t[1]), float(t[2]))
+            goal = place(tee, float(g[0]), float(g[1]), float(g[2]))
+            robot = place(circle_shape(cfg.robot_radius), float(r[0]), float(r[1]), 0.0)
+            if any(overlaps(robot, o) for o in (block, goal, *walls)):
+                continue
+            if any(overlaps(shape, wall) for shape in (block, goal) for wall in walls):
+                continue
+            return self._pd_settle(state)
+        raise RuntimeError(f"DynPushT2D: no valid initial state in {cfg.max_reset_tries} draws")
+
+    def _pd_settings(self) -> PDSettings:
+        return dataclasses.replace(
+            super()._pd_settings(), init_robot_pos=self.config.init_robot_pos
+        )
+
+    def _pd_specs(self, state: ObjectCentricState) -> list[BodySpec]:
+        specs = [
+            BodySpec(name, None, static_rect(x, y, 0.0, w, h, angle_first=False))
+            for name, x, y, w, h in upstream_walls(
+                self.config, self.config.max_dx, self.config.max_dy
+            )
+        ]
+        t = state[self.tblock]
+        specs.append(BodySpec("tblock", self.tblock, tblock(t, t[12], t[13], t[14], t[15]), "once"))
+        return specs
 
     def goal_reached(self, state: ObjectCentricState) -> bool:
         t, g = state[self.tblock], state[self.goal_tblock]
@@ -191,8 +230,3 @@ class DynPushT2DEnv(Dynamic2DEnv):
             canvas.polygon(p, fill=(r, gr, b), outline=(40, 120, 40), outline_width=0.02)
         for p in goal.polys:
             canvas.polygon(p, fill=(r, gr, b))
-
-
-def _inside(shape: WorldShape, lo: np.ndarray, hi: np.ndarray) -> bool:
-    """Every vertex of ``shape`` lies in the box [lo, hi]."""
-    return all(bool(np.all((p >= lo) & (p <= hi))) for p in shape.polys)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -16,14 +17,26 @@ from kinder_garden2d.dynamic2d.base_env import (
     KinRobotConfig,
     object_values,
     resolve_config,
-    uniform,
+    upstream_walls,
 )
 from kinder_garden2d.dynamic2d.geometry import (
     WorldShape,
+    box,
     kin_robot_geometry,
     lobject_shape,
     overlaps,
     place,
+)
+from kinder_garden2d.dynamic2d.pd_physics import (
+    CT_ARM,
+    CT_FINGER,
+    CT_ROBOT,
+    BodySpec,
+    PDSettings,
+    dynamic_lobject,
+    small_circle,
+    small_square,
+    static_rect,
 )
 from kinder_garden2d.dynamic2d.physics import Scene, StaticBox
 
@@ -53,20 +66,10 @@ class DynScoopPour2DConfig(KinRobotConfig):
     wall_center_x: float = 1.75
     wall_width: float = 0.1
     wall_height: float = 1.5
-    hook_width: float = 0.05
     hook_length_side1: float = 0.5
     hook_length_side2: float = 0.5
     hook_mass: float = 0.5
-    hook_init_x: tuple[float, float] = (3.0, 3.3)
-    hook_init_y: tuple[float, float] = (0.05, 0.7)
-    hook_init_theta: float = -math.pi / 2
-    circle_radius: tuple[float, float] = (0.0625, 0.0833)
-    square_size: tuple[float, float] = (0.0833, 0.0893)
     small_mass: float = 0.1
-    # Small objects start in distinct cells of a lattice left of the wall (jittered in their cell).
-    lattice_x: tuple[float, float] = (0.1, 1.65)
-    lattice_min_y: float = 0.0
-    lattice_spacing: float = 0.18
     goal_min_x: float = 1.75
     goal_max_y: float = 0.75
     goal_max_speed_sq: float = 1e-4
@@ -75,6 +78,10 @@ class DynScoopPour2DConfig(KinRobotConfig):
     substep_seconds: float = 0.05
     settle_max_seconds: float = 6.0
     settle_speed_tol: float = 5e-3
+    # Upstream lets the freshly sampled (overlapping) small objects settle for 30 s.
+    stabilization_seconds: float = 30.0
+    # The hook's thickness, its position range and the small objects' size and position ranges
+    # derive from the gripper and world sizes as upstream derives them (see the sampling).
 
 
 class DynScoopPour2DEnv(Dynamic2DEnv):
@@ -149,6 +156,8 @@ class DynScoopPour2DEnv(Dynamic2DEnv):
     * v0: initial version.
     """
 
+    has_pd = True
+
     def __init__(
         self,
         num_objects: int = 10,
@@ -169,16 +178,6 @@ class DynScoopPour2DEnv(Dynamic2DEnv):
             Object(f"small_square{i}", ot.SMALL_SQUARE) for i in range(self.num_objects - n_circles)
         ]
         self.smalls = sorted([*self.circles, *self.squares], key=lambda o: o.name)
-        cols = int((cfg.lattice_x[1] - cfg.lattice_x[0]) // cfg.lattice_spacing)
-        rows = -(-self.num_objects // cols) + 1
-        top = cfg.lattice_min_y + rows * cfg.lattice_spacing
-        if cols < 1 or top > cfg.wall_height:
-            raise ValueError(
-                f"DynScoopPour2D: {self.num_objects} small objects do not fit left of the wall "
-                f"(a {cols}-column lattice would reach y = {top:.2f} > wall height "
-                f"{cfg.wall_height})"
-            )
-        self._lattice = (cols, rows)
         self._goal_idx: tuple[Any, Any] | None = None
         self.action_space = cfg.action_space()
         self.observation_space = ObjectCentricStateSpace([ot.DYNAMIC2D_OBJECT, ot.KIN_ROBOT])
@@ -199,62 +198,97 @@ class DynScoopPour2DEnv(Dynamic2DEnv):
         return [self.robot, self.hook, *self.smalls]
 
     def _sample_unsettled(self, rng: np.random.Generator) -> ObjectCentricState:
+        raise NotImplementedError("DynScoopPour2D draws the robot once, then the rest")
+
+    def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
+        """Upstream's sampling: the robot once, then the hook and every small object (left of
+        the wall, overlapping freely) until the robot overlaps neither the hook nor a wall; then
+        upstream's long settling pushes the small objects apart."""
         cfg = self.config
-        statics = [WorldShape((sb.poly,)) for sb in self.scene.statics]
-        hook_geom = dict(
-            width=cfg.hook_width,
-            length_side1=cfg.hook_length_side1,
-            length_side2=cfg.hook_length_side2,
-            mass=cfg.hook_mass,
+        gh, mx = cfg.gripper_base_height, cfg.wall_center_x
+        x0, x1, y1 = cfg.world_min_x, cfg.world_max_x, cfg.world_max_y
+        hw = gh / 5
+        robot = cfg.robot_values(
+            rng.uniform(cfg.robot_init_x[0], cfg.robot_init_x[1]),
+            rng.uniform(cfg.robot_init_y[0], cfg.robot_init_y[1]),
+            rng.uniform(cfg.robot_init_theta[0], cfg.robot_init_theta[1]),
         )
-        hook_local = lobject_shape(cfg.hook_width, cfg.hook_length_side1, cfg.hook_length_side2)
+        robot_shape = kin_robot_geometry([robot[f] for f in ot.KIN_ROBOT_FEATURES]).shape
+        statics = [
+            WorldShape((box(x - w / 2, x + w / 2, y - h / 2, y + h / 2),))
+            for _, x, y, w, h in upstream_walls(cfg, cfg.max_dx, cfg.max_dy)
+        ]
+        statics.append(WorldShape((self.middle_wall.poly,)))
         for _ in range(cfg.max_reset_tries):
-            feats: dict[Object, dict[str, float]] = {}
-            hx, hy = uniform(rng, *cfg.hook_init_x), uniform(rng, *cfg.hook_init_y)
-            hook = place(hook_local, hx, hy, cfg.hook_init_theta)
-            if any(overlaps(hook, s) for s in statics):
-                continue
+            hx = rng.uniform((mx + x1) / 2 + 0.5, x1)
+            hy = rng.uniform(gh / 5, y1 / 2 - 0.8)
+            hth = rng.uniform(-np.pi / 2, -np.pi / 2 + 1e-3)
+            feats: dict[Object, dict[str, float]] = {self.robot: robot}
             feats[self.hook] = object_values(
-                hx, hy, cfg.hook_init_theta, ot.BROWN, ot.Z_ALL, **hook_geom
+                hx,
+                hy,
+                hth,
+                ot.BROWN,
+                ot.Z_SURFACE,
+                width=hw,
+                length_side1=cfg.hook_length_side1,
+                length_side2=cfg.hook_length_side2,
+                mass=cfg.hook_mass,
             )
-            robot = cfg.robot_values(
-                uniform(rng, *cfg.robot_init_x),
-                uniform(rng, *cfg.robot_init_y),
-                uniform(rng, *cfg.robot_init_theta),
+            for objs, kind in ((self.circles, "circle"), (self.squares, "square")):
+                for obj in objs:
+                    x = rng.uniform(x0 + 0.2, mx - 0.3)
+                    y = rng.uniform(0.0, y1 / 2 - 0.2)
+                    th = rng.uniform(-np.pi, np.pi)
+                    if kind == "circle":
+                        r = rng.uniform(gh / 4, gh / 3)
+                        feats[obj] = object_values(
+                            x, y, th, ot.ORANGE, ot.Z_SURFACE, radius=r, mass=cfg.small_mass
+                        )
+                    else:
+                        size = rng.uniform(gh / 3, gh / 2.8)
+                        feats[obj] = object_values(
+                            x, y, th, ot.PURPLE, ot.Z_SURFACE, size=size, mass=cfg.small_mass
+                        )
+            hook = place(
+                lobject_shape(hw, cfg.hook_length_side1, cfg.hook_length_side2), hx, hy, hth
             )
-            shape = kin_robot_geometry([robot[f] for f in ot.KIN_ROBOT_FEATURES]).shape
-            if any(overlaps(shape, s) for s in (hook, *statics)):
-                continue
-            feats[self.robot] = robot
-            feats.update(self._sample_smalls(rng))
-            return ObjectCentricState.from_features(feats)
+            if not any(overlaps(robot_shape, o) for o in (hook, *statics)):
+                return self._pd_settle(ObjectCentricState.from_features(feats))
         raise RuntimeError(
-            f"DynScoopPour2D: could not place the scoop and the robot without overlaps in "
-            f"{cfg.max_reset_tries} tries"
+            f"DynScoopPour2D: no hook pose clear of the robot in {cfg.max_reset_tries} draws"
         )
 
-    def _sample_smalls(self, rng: np.random.Generator) -> dict[Object, dict[str, float]]:
+    def _pd_settings(self) -> PDSettings:
+        return dataclasses.replace(
+            super()._pd_settings(), static_stops=(CT_ROBOT, CT_FINGER, CT_ARM)
+        )
+
+    def _pd_specs(self, state: ObjectCentricState) -> list[BodySpec]:
         cfg = self.config
-        cols, rows = self._lattice
-        s = cfg.lattice_spacing
-        cells = rng.choice(cols * rows, size=self.num_objects, replace=False)
-        feats: dict[Object, dict[str, float]] = {}
-        # Circles first, then squares, each in name order: a fixed assignment of draws.
-        for obj, cell in zip([*self.circles, *self.squares], cells.tolist()):
-            cx = cfg.lattice_x[0] + (cell % cols + 0.5) * s
-            cy = cfg.lattice_min_y + (cell // cols + 0.5) * s
-            th = uniform(rng, -math.pi, math.pi)
-            if obj.type == ot.SMALL_CIRCLE:
-                r = uniform(rng, *cfg.circle_radius)
-                extent, geom, color = r, dict(radius=r), ot.ORANGE
-            else:
-                size = uniform(rng, *cfg.square_size)
-                extent, geom, color = size / math.sqrt(2), dict(size=size), ot.PURPLE
-            slack = max(0.0, s / 2 - extent)
-            x = cx + uniform(rng, -slack, slack)
-            y = cy + uniform(rng, -slack, slack)
-            feats[obj] = object_values(x, y, th, color, ot.Z_ALL, mass=cfg.small_mass, **geom)
-        return feats
+        specs = [
+            BodySpec(name, None, static_rect(x, y, 0.0, w, h))
+            for name, x, y, w, h in upstream_walls(cfg, cfg.max_dx, cfg.max_dy)
+        ]
+        specs.append(
+            BodySpec(
+                "middle_wall",
+                None,
+                static_rect(
+                    cfg.wall_center_x, cfg.world_max_y / 4, 0.0, cfg.wall_width, cfg.wall_height
+                ),
+            )
+        )
+        h = state[self.hook]
+        hook = dynamic_lobject(h, h[12], h[13], h[14], h[15], set_body_mass=False, held_ct=CT_ROBOT)
+        specs.append(BodySpec("hook", self.hook, hook, "once"))
+        for obj in self.circles:
+            f = state[obj]
+            specs.append(BodySpec(obj.name, obj, small_circle(f, f[12], f[13]), "keep"))
+        for obj in self.squares:
+            f = state[obj]
+            specs.append(BodySpec(obj.name, obj, small_square(f, f[12], f[13]), "once"))
+        return specs
 
     def goal_reached(self, state: ObjectCentricState) -> bool:
         return self.num_poured(state) >= self.config.goal_fraction * self.num_objects

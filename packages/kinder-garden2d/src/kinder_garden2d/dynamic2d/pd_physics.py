@@ -316,6 +316,46 @@ class PDRobot:
         return False
 
 
+class PDDot:
+    """The dot robot: one kinematic disc under a PD controller on its position."""
+
+    def __init__(self, features: Sequence[float] | FloatArray, settings: PDSettings) -> None:
+        self.settings = settings
+        self.held: list[tuple[pymunk.Body, list[pymunk.Shape], Pose]] = []
+        self.grasped: dict[int, pymunk.Body] = {}
+        x0, y0 = settings.init_robot_pos
+        self.last_pos = Vec2d(x0, y0)
+        self.base = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        self.base_shape = pymunk.Circle(self.base, float(features[12]))
+        self.base_shape.friction = 1
+        self.base_shape.collision_type = CT_ROBOT
+        self.base_shape.density = 1.0
+        self.base.position = self.last_pos
+
+    def add_to(self, space: pymunk.Space) -> None:
+        space.add(self.base, self.base_shape)
+
+    def set_from_state(self, f: Sequence[float] | FloatArray) -> None:
+        self.base.position = (f[0], f[1])
+        self.base.velocity = Vec2d(f[3], f[4])
+        self.remember()
+
+    def remember(self) -> None:
+        self.last_pos = Vec2d(self.base.position.x, self.base.position.y)
+
+    def revert(self) -> None:
+        self.base.position = self.last_pos
+        self.base.velocity = Vec2d(0.0, 0.0)
+
+    def command(self, target: Sequence[float], dt: float) -> None:
+        st = self.settings
+        pos = Vec2d(self.base.position.x, self.base.position.y)
+        vel = self.base.velocity
+        acc = st.kp_pos * (Vec2d(target[0], target[1]) - pos) + st.kv_pos * (Vec2d(0, 0) - vel)
+        self.remember()
+        self.base.velocity = vel + acc * dt
+
+
 # -- what a space holds ------------------------------------------------------------------------
 @dataclass
 class BodySpec:
@@ -325,8 +365,10 @@ class BodySpec:
 
     name: str
     obj: Object | None
-    make: Callable[[pymunk.Space, PDRobot], pymunk.Body | None]
-    wrap_theta: bool = False  # upstream wraps this object's angle when it reads the state
+    make: Callable[[pymunk.Space, Any], pymunk.Body | None]
+    # How upstream reads this object's angle back: "raw" (unwrapped), "wrap" (arctan2 wrap),
+    # "once" (shifted by 2π once when outside [−π, π]) or "keep" (not read: the state's value).
+    theta: str = "raw"
 
 
 @dataclass
@@ -338,7 +380,7 @@ class PDSpace:
     robot_features: Sequence[float] | FloatArray
     specs: list[BodySpec]
     space: pymunk.Space = field(init=False)
-    robot: PDRobot = field(init=False)
+    robot: Any = field(init=False)  # PDRobot, or PDDot for the dot robot
     bodies: dict[Object, pymunk.Body] = field(init=False)
 
     def __post_init__(self) -> None:
@@ -347,22 +389,26 @@ class PDSpace:
         space.gravity = 0, st.gravity
         space.damping = st.damping
         space.collision_slop = st.collision_slop
-        robot = PDRobot(self.robot_features, st)
+        self.is_dot = self.robot_obj.type.name == "dot_robot"
+        robot: PDRobot | PDDot = (
+            PDDot(self.robot_features, st) if self.is_dot else PDRobot(self.robot_features, st)
+        )
         robot.add_to(space)
-        space.on_collision(CT_DYNAMIC, CT_FINGER, post_solve=_on_finger, data=robot)
+        if not self.is_dot:
+            space.on_collision(CT_DYNAMIC, CT_FINGER, post_solve=_on_finger, data=robot)
         for ct in st.static_stops:
             space.on_collision(CT_STATIC, ct, pre_solve=_on_static, data=robot)
         self.space, self.robot = space, robot
         robot.set_from_state(self.robot_features)
         self.bodies = {}
-        self._wrap: dict[Object, bool] = {}
+        self._theta: dict[Object, str] = {}
         for spec in sorted(self.specs, key=lambda s: s.name):
             if spec.obj == self.robot_obj:
                 continue
             body = spec.make(space, robot)
             if spec.obj is not None and body is not None:
                 self.bodies[spec.obj] = body
-                self._wrap[spec.obj] = spec.wrap_theta
+                self._theta[spec.obj] = spec.theta
 
     def reindex(self) -> None:
         """As upstream after a reset from a state: reindex every body's shapes."""
@@ -379,6 +425,16 @@ class PDSpace:
         """One upstream action: PD control towards the commanded target, then grasp and release
         bookkeeping."""
         st, robot, space = self.settings, self.robot, self.space
+        n = st.sim_hz // st.control_hz
+        sim_dt, control_dt = 1.0 / st.sim_hz, 1.0 / st.control_hz
+        if self.is_dot:
+            p = robot.base.position
+            dot_target = [p.x + float(action[0]), p.y + float(action[1])]
+            for _ in range(n):
+                robot.command(dot_target, control_dt)
+                for _ in range(n):
+                    space.step(sim_dt)
+            return
         dx, dy, dth, darm, dgap = (float(a) for a in action)
         base = robot.base
         target = [
@@ -392,8 +448,6 @@ class PDSpace:
         target[4] = max(min(gap + dgap, robot.gh), robot.fh * 2)
         robot.opening = target[4] - gap > st.finger_moving_threshold
         robot.closing = gap - target[4] > st.finger_moving_threshold
-        n = st.sim_hz // st.control_hz
-        sim_dt, control_dt = 1.0 / st.sim_hz, 1.0 / st.control_hz
         for _ in range(n):
             robot.command(target, control_dt)
             for _ in range(n):
@@ -408,21 +462,33 @@ class PDSpace:
         """Write the robot's and the objects' simulated features into ``state``."""
         robot = self.robot
         r = state[self.robot_obj]
-        b, g, fl, fr = robot.base, robot.gripper, robot.finger_l, robot.finger_r
-        r[0], r[1], r[2] = b.position.x, b.position.y, b.angle
-        r[3], r[4], r[5] = b.velocity.x, b.velocity.y, b.angular_velocity
-        r[6], r[7], r[8] = g.velocity.x, g.velocity.y, g.angular_velocity
-        r[9], r[10], r[11] = fl.velocity.x, fl.velocity.y, fl.angular_velocity
-        r[12], r[13], r[14] = fr.velocity.x, fr.velocity.y, fr.angular_velocity
-        r[17] = robot.arm()
-        r[21] = robot.gap()
+        if self.is_dot:
+            b = robot.base
+            r[0], r[1], r[3], r[4] = b.position.x, b.position.y, b.velocity.x, b.velocity.y
+        else:
+            b, g, fl, fr = robot.base, robot.gripper, robot.finger_l, robot.finger_r
+            r[0], r[1], r[2] = b.position.x, b.position.y, b.angle
+            r[3], r[4], r[5] = b.velocity.x, b.velocity.y, b.angular_velocity
+            r[6], r[7], r[8] = g.velocity.x, g.velocity.y, g.angular_velocity
+            r[9], r[10], r[11] = fl.velocity.x, fl.velocity.y, fl.angular_velocity
+            r[12], r[13], r[14] = fr.velocity.x, fr.velocity.y, fr.angular_velocity
+            r[17] = robot.arm()
+            r[21] = robot.gap()
         state[self.robot_obj] = r
         held_bodies = {id(hb) for hb, _, _ in robot.held}
+        current = self._current
         for obj, body in self.bodies.items():
-            body = self._current.get(obj, body)
+            body = current.get(obj, body)
             f = state[obj]
+            f[0], f[1] = body.position.x, body.position.y
+            mode = self._theta[obj]
             th = body.angle
-            f[0], f[1], f[2] = body.position.x, body.position.y, wrap(th) if self._wrap[obj] else th
+            if mode == "wrap":
+                f[2] = wrap(th)
+            elif mode == "once":
+                f[2] = th - 2 * np.pi if th > np.pi else th + 2 * np.pi if th < -np.pi else th
+            elif mode == "raw":
+                f[2] = th
             f[3], f[4], f[5] = body.velocity.x, body.velocity.y, body.angular_velocity
             f[7] = 1.0 if id(body) in held_bodies else 0.0
             state[obj] = f
@@ -438,7 +504,7 @@ class PDSpace:
         return out
 
 
-def _on_static(arbiter: pymunk.Arbiter, space: pymunk.Space, robot: PDRobot) -> None:
+def _on_static(arbiter: pymunk.Arbiter, space: pymunk.Space, robot: PDRobot | PDDot) -> None:
     robot.revert()
 
 
@@ -466,8 +532,11 @@ def box_vertices(w: float, h: float) -> list[tuple[float, float]]:
     return [(-w / 2, -h / 2), (-w / 2, h / 2), (w / 2, h / 2), (w / 2, -h / 2)]
 
 
-def static_rect(x: float, y: float, theta: float, w: float, h: float) -> Callable[..., Any]:
-    """A static rectangle: a kinematic body of the static collision type."""
+def static_rect(
+    x: float, y: float, theta: float, w: float, h: float, angle_first: bool = True
+) -> Callable[..., Any]:
+    """A static rectangle: a kinematic body of the static collision type (placed angle first,
+    or position first as DynPushT2D places its walls)."""
 
     def make(space: pymunk.Space, robot: PDRobot) -> pymunk.Body:
         b = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
@@ -478,8 +547,12 @@ def static_rect(x: float, y: float, theta: float, w: float, h: float) -> Callabl
         sh.elasticity = 0.99
         sh.collision_type = CT_STATIC
         space.add(b, sh)
-        b.angle = theta
-        b.position = x, y
+        if angle_first:
+            b.angle = theta
+            b.position = x, y
+        else:
+            b.position = x, y
+            b.angle = theta
         return b
 
     return make
@@ -535,9 +608,17 @@ def lshape_polys(
 
 
 def dynamic_lobject(
-    f: Sequence[float] | FloatArray, w: float, l1: float, l2: float, mass: float
+    f: Sequence[float] | FloatArray,
+    w: float,
+    l1: float,
+    l2: float,
+    mass: float,
+    set_body_mass: bool = True,
+    held_ct: int = CT_DYNAMIC,
 ) -> Callable[..., Any]:
-    """An L-object (two convex parts of half the mass each): dynamic, or kinematic and held."""
+    """An L-object (two convex parts of half the mass each): dynamic, or kinematic and held
+    (with collision type ``held_ct``). ``set_body_mass``: DynPushPullHook2D also sets the body's
+    mass and moment after making the shapes (DynScoopPour2D does not)."""
     x, y, th, vx, vy, om, held = (float(f[i]) for i in range(8) if i != 6)
     p1, p2 = lshape_polys(w, l1, l2)
 
@@ -552,9 +633,9 @@ def dynamic_lobject(
         for s in (s1, s2):
             s.friction = 1.0
             s.density = 1.0
-            s.collision_type = CT_DYNAMIC
+            s.collision_type = held_ct if held > 0.5 else CT_DYNAMIC
             s.mass = mass / 2
-        if held <= 0.5:
+        if held <= 0.5 and set_body_mass:
             b.moment = m1
             b.mass = mass
             b.moment = m2
@@ -572,12 +653,87 @@ def dynamic_lobject(
     return make
 
 
+def small_circle(f: Sequence[float] | FloatArray, radius: float, mass: float) -> Callable[..., Any]:
+    """A small non-graspable disc (its angle is never set: upstream places discs unrotated)."""
+    x, y, vx, vy, om = (float(f[i]) for i in (0, 1, 3, 4, 5))
+
+    def make(space: pymunk.Space, robot: Any) -> pymunk.Body:
+        b = pymunk.Body(mass, pymunk.moment_for_circle(mass, 0, radius))
+        sh = pymunk.Circle(b, radius)
+        sh.friction = 1.0
+        sh.density = 1.0
+        sh.collision_type = CT_NON_GRASPABLE
+        sh.mass = mass
+        space.add(b, sh)
+        b.position = x, y
+        b.velocity = vx, vy
+        b.angular_velocity = om
+        return b
+
+    return make
+
+
+def small_square(f: Sequence[float] | FloatArray, size: float, mass: float) -> Callable[..., Any]:
+    """A small non-graspable square."""
+    x, y, th, vx, vy, om = (float(f[i]) for i in range(6))
+    vs = box_vertices(size, size)
+
+    def make(space: pymunk.Space, robot: Any) -> pymunk.Body:
+        b = pymunk.Body(mass, pymunk.moment_for_poly(mass, vs))
+        sh = pymunk.Poly(b, vs)
+        sh.friction = 1.0
+        sh.density = 1.0
+        sh.collision_type = CT_NON_GRASPABLE
+        sh.mass = mass
+        space.add(b, sh)
+        b.angle = th
+        b.position = x, y
+        b.velocity = vx, vy
+        b.angular_velocity = om
+        return b
+
+    return make
+
+
+def tblock(
+    f: Sequence[float] | FloatArray, w: float, lh: float, lv: float, mass: float
+) -> Callable[..., Any]:
+    """DynPushT2D's T block: a bar ``lh`` × ``w`` below the origin and a stem ``w`` × ``lv``
+    below the bar. Its shapes have unit density, so pymunk takes its mass from the area."""
+    x, y, th, vx, vy, om = (float(f[i]) for i in range(6))
+
+    def make(space: pymunk.Space, robot: Any) -> pymunk.Body:
+        moment = pymunk.moment_for_box(mass, (lh, w)) + pymunk.moment_for_box(mass, (w, lv))
+        b = pymunk.Body(mass, moment)
+        bar = [(-lh / 2, 0), (-lh / 2, -w), (lh / 2, -w), (lh / 2, 0)]
+        stem = [(-w / 2, -w), (-w / 2, -w - lv), (w / 2, -w - lv), (w / 2, -w)]
+        s1, s2 = pymunk.Poly(b, bar), pymunk.Poly(b, stem)
+        s1.friction = 1.0
+        s2.friction = 1.0
+        s1.density = 1.0
+        s2.density = 1.0
+        s1.collision_type = CT_DYNAMIC
+        s2.collision_type = CT_DYNAMIC
+        space.add(b, s1, s2)
+        b.angle = th
+        b.position = (x, y)
+        b.velocity = vx, vy
+        b.angular_velocity = om
+        return b
+
+    return make
+
+
 __all__ = [
     "BodySpec",
+    "PDDot",
     "PDRobot",
     "PDSettings",
     "PDSpace",
     "dynamic_lobject",
     "dynamic_rect",
+    "small_circle",
+    "small_square",
     "static_rect",
+    "tblock",
 ]
