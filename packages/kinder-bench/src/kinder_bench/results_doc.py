@@ -340,7 +340,7 @@ def sr_quotes(
                 methods = _named(line, names) or _named(heading, names)
                 if envs:
                     quotes.append(
-                        Quote(page, n, figure.group(1), frozenset(envs), frozenset(methods))
+                        Quote(page, n, m.group(1), frozenset(envs), frozenset(methods))
                     )
             continue
         cells = _cells(line)
