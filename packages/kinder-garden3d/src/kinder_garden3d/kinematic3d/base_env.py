@@ -363,6 +363,12 @@ class Kinematic3DEnv(ObjectCentricEnv):
                     found.append((a, b))
         return found
 
+    def self_collision(self, state: ObjectCentricState) -> bool:
+        """Whether the robot's arm touches itself in ``state`` (the pairs the env checks when
+        ``check_self_collisions`` is set)."""
+        self._sync(state)
+        return self._scene.self_collides(self.config.collision_distance)
+
     def support_gap(self, state: ObjectCentricState, name: str) -> float:
         """The smallest gap between object ``name`` and a surface below it (+inf if none within
         ``min_placement_dist``)."""

@@ -66,6 +66,7 @@ from kinder_gym.models.kinematic3d.tidybot import (
     base_path,
     config_delta,
     solve_ik,
+    tool_to_pinch,
     top_down_quat,
     wrap,
 )
@@ -186,7 +187,7 @@ class TableTopController(ReachController):
         """End-effector poses putting the held object upright at ``pos`` with each yaw."""
         tf = state[self.robot][12:19]
         inv_p, inv_q = invert(np.asarray(tf[:3]), np.asarray(tf[3:]))
-        return [compose(pos, yaw_quat(y), inv_p, inv_q) for y in yaws]
+        return [tool_to_pinch(*compose(pos, yaw_quat(y), inv_p, inv_q)) for y in yaws]
 
 
 def box_outline(f: FloatArray) -> FloatArray:

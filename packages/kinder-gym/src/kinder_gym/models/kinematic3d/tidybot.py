@@ -23,8 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.kinematic3d.geometry import compose, invert, normalize_quat
-from kinder_garden3d.robot.description import RETRACT, robot_description
+from kinder_garden3d.kinematic3d.geometry import compose, invert, normalize_quat, quat_to_matrix
+from kinder_garden3d.kinematic3d.scene import TOOL_OFFSET
+from kinder_garden3d.robot.description import PINCH_OFFSET, RETRACT, robot_description
 from kinder_garden3d.robot.ik import InverseKinematics
 from kinder_gym.motion_planning import FloatArray, plan_joint_space, plan_se2
 from kinder_gym.skills import Controller, SkillFailure
@@ -59,6 +60,22 @@ def top_down_quat(yaw: float) -> FloatArray:
     c, s = math.cos(yaw / 2), math.sin(yaw / 2)
     # Rz(yaw) ⊗ Ry(π): (0, 0, s, c) ⊗ (0, 1, 0, 0).
     return np.array([-s, c, 0.0, 0.0])
+
+
+#: A quarter turn about z (x, y, z, w): the gripper (pinch) frame in the tool frame.
+_TOOL_TO_GRIPPER = np.array([0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)])
+
+
+def tool_to_pinch(pos: FloatArray, quat: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The pinch-point pose (what :func:`solve_ik` places) of a tool-frame pose (the env's
+    ``ee_pose`` and the frame of the grasp-transform features): the pinch point lies
+    ``PINCH_OFFSET − TOOL_OFFSET`` further along the approach axis, and the gripper frame is
+    the tool frame turned a quarter about that axis."""
+    p = np.asarray(pos, dtype=np.float64)
+    q = np.asarray(quat, dtype=np.float64)
+    pinch_p = p + quat_to_matrix(q)[:, 2] * (PINCH_OFFSET - TOOL_OFFSET)
+    _, pinch_q = compose(np.zeros(3), q, np.zeros(3), _TOOL_TO_GRIPPER)
+    return pinch_p, normalize_quat(pinch_q)
 
 
 @dataclass(frozen=True)
@@ -171,7 +188,10 @@ class ConfigChecker:
 
     def __call__(self, config: Sequence[float] | FloatArray) -> bool:
         self.checks += 1
-        pairs = self.env.penetrations(self.state_at(config))  # type: ignore[attr-defined]
+        state = self.state_at(config)
+        if self.env.config.check_self_collisions and self.env.self_collision(state):  # type: ignore[attr-defined]
+            return False
+        pairs = self.env.penetrations(state)  # type: ignore[attr-defined]
         # Only contacts between something that moves and something that does not count.
         return all((a in self.moving) == (b in self.moving) for a, b in pairs)
 

@@ -46,6 +46,7 @@ from kinder_gym.models.kinematic3d.tidybot import (
     base_path,
     config_delta,
     solve_ik,
+    tool_to_pinch,
     top_down_quat,
     wrap,
 )
@@ -200,11 +201,13 @@ class PlaceController(ReachController):
         dist = 0.45 + 0.2 * dist_p
         # The end effector points down along the approach; the object hangs below it by the
         # grasp transform, so the end effector goes where that puts the object at the spot.
+        # The grasp transform is in the tool frame, a quarter turn from the pinch frame.
         tf_p = np.asarray(state[robot][12:15], dtype=np.float64)
-        ee_q = top_down_quat(angle)
-        ee_p = np.array([px, py, pz]) - quat_to_matrix(ee_q) @ tf_p
+        tool_q = top_down_quat(angle)
+        tool_p = np.array([px, py, pz]) - quat_to_matrix(tool_q) @ tf_p
+        ee_p, ee_q = tool_to_pinch(tool_p, tool_q)
         base_goal = self._standoff(state, np.array([px, py]), dist, angle)
-        return self._sequence(state, base_goal, np.asarray(ee_p), np.asarray(ee_q), 1.0, salt=2)
+        return self._sequence(state, base_goal, ee_p, ee_q, 1.0, salt=2)
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
