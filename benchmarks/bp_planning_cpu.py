@@ -9,7 +9,7 @@ that planning took. Episodes whose CPU time is under 60 s would have been planne
 BP default budget on an idle core (the planner is single-threaded).
 
 Usage:
-    python benchmarks/bp_planning_cpu.py --env kinder/SweepIntoDrawer3D-o5-v0 --seeds 100-109
+    python benchmarks/bp_planning_cpu.py --env kinder/SweepIntoDrawer3D-o5-v0 --seeds 1000-1009
         [--timeout 400] [--max-steps 500]
 
 Prints one line per episode and a JSON summary line.
@@ -24,7 +24,7 @@ from typing import Any
 
 from kinder_bench.baselines.bilevel_planning import BilevelPlanningArgs, plan_episode
 from kinder_bench.envs import default_max_steps
-from kinder_bench.protocol import PAPER_MAX_STEPS
+from kinder_bench.protocol import DEVELOPMENT_SEED, PAPER_MAX_STEPS
 from kinder_core import make_object_centric
 
 
@@ -36,7 +36,11 @@ def _seeds(text: str) -> list[int]:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", default="kinder/SweepIntoDrawer3D-o5-v0")
-    parser.add_argument("--seeds", default="100-109")
+    parser.add_argument(
+        "--seeds",
+        default=f"{DEVELOPMENT_SEED}-{DEVELOPMENT_SEED + 9}",
+        help="env reset seeds (development seeds, never the evaluation instances)",
+    )
     parser.add_argument("--timeout", type=float, default=400.0, help="wall seconds per plan")
     parser.add_argument("--max-steps", type=int, default=0, help="0: the runner's budget")
     args = parser.parse_args(argv)

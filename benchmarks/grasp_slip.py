@@ -10,7 +10,7 @@ over the hold and over ``--random`` seeded random actions on Shelf3D-o1 and Swee
 Settings are run alternately per seed so that machine load affects them alike.
 
 Usage:
-    python benchmarks/grasp_slip.py [--seeds 0-4] [--hold 50] [--random 200]
+    python benchmarks/grasp_slip.py [--seeds 1000-1004] [--hold 50] [--random 200]
         [--settings pyramidal:1 elliptic:10 ...] [--out benchmarks/results/grasp_slip.json]
 """
 
@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from kinder_bench.protocol import DEVELOPMENT_SEED
 from kinder_core import make_object_centric
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position
@@ -113,7 +114,11 @@ def step_cost(setting: str, env_id: str, seed: int, steps: int) -> float:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default="0-4")
+    parser.add_argument(
+        "--seeds",
+        default=f"{DEVELOPMENT_SEED}-{DEVELOPMENT_SEED + 4}",
+        help="env reset seeds (development seeds, never the evaluation instances)",
+    )
     parser.add_argument("--hold", type=int, default=50, help="actions held still (0.1 s each)")
     parser.add_argument("--random", type=int, default=200, help="random actions per step-cost run")
     parser.add_argument("--settings", nargs="+", default=["pyramidal:1", "elliptic:10"])

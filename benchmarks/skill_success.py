@@ -1,8 +1,10 @@
 """How often the dynamic planning models' skills reach their operators' predictions.
 
 A planner-free check of the skills (no search, no time budget, so machine load does not change
-it), for comparing physics settings or skill constants. For each seed the operators run in a
-fixed order, each with up to 3 parameter samples from its own sampler:
+it), for comparing physics settings or skill constants. For each env reset seed (development
+seeds, :data:`~kinder_bench.protocol.DEVELOPMENT_SEED` on by default, so that no skill is tuned on
+an instance the evaluation uses) the operators run in a fixed order, each with up to 3 parameter
+samples from its own sampler:
 
 * ``shelf``: Pick then Place of every cube in turn (Shelf3D-oN); a step counts when the
   abstract state afterwards equals the operator's prediction.
@@ -26,12 +28,12 @@ fixed order, each with up to 3 parameter samples from its own sampler:
   (DynScoopPour2D-oN), one parameter sample each, so its counts are single-sample rates.
 
 Usage:
-    python benchmarks/skill_success.py shelf --env kinder/Shelf3D-o4-v0 --seeds 0-5
-    python benchmarks/skill_success.py sweep --seeds 0-19 [--contacts pyramidal:1]
-    python benchmarks/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 0-9
-    python benchmarks/skill_success.py scoop --env kinder/DynScoopPour2D-o10-v0 --seeds 0-29
-    python benchmarks/skill_success.py cupboard --seeds 0-9
-    python benchmarks/skill_success.py pour --env kinder/ScoopPour3D-o10-v0 --seeds 0-11
+    python benchmarks/skill_success.py shelf --env kinder/Shelf3D-o4-v0 --seeds 1000-1005
+    python benchmarks/skill_success.py sweep --seeds 1000-1019 [--contacts pyramidal:1]
+    python benchmarks/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 1000-1009
+    python benchmarks/skill_success.py scoop --env kinder/DynScoopPour2D-o10-v0 --seeds 1000-1029
+    python benchmarks/skill_success.py cupboard --seeds 1000-1009
+    python benchmarks/skill_success.py pour --env kinder/ScoopPour3D-o10-v0 --seeds 1000-1011
     python benchmarks/skill_success.py pickplace --env kinder/SweepSimple3D-o5-<instruction>-v0
 
 A step counts as the planner counts it (``abstract_match``): the predicted abstract state, or
@@ -54,6 +56,7 @@ from typing import Any
 import numpy as np
 
 from kinder_bench.baselines.bilevel_planning import abstract_match
+from kinder_bench.protocol import DEVELOPMENT_SEED
 from kinder_bench.results import write_json
 from kinder_core import ObjectCentricState, make_object_centric
 from kinder_gym.models import create_model
@@ -74,7 +77,11 @@ def main(argv: list[str] | None = None) -> None:
         "model", choices=("shelf", "sweep", "toss", "scoop", "cupboard", "pour", "pickplace")
     )
     parser.add_argument("--env", help="env id (default: Shelf3D-o1 or SweepIntoDrawer3D-o5)")
-    parser.add_argument("--seeds", default="0-9")
+    parser.add_argument(
+        "--seeds",
+        default=f"{DEVELOPMENT_SEED}-{DEVELOPMENT_SEED + 9}",
+        help="env reset seeds (development seeds: never tune on the evaluation instances)",
+    )
     parser.add_argument("--contacts", help="cone:impratio, e.g. pyramidal:1 (default: the env's)")
     parser.add_argument("--out", type=Path, help="also write the JSON object to this file")
     parser.add_argument(

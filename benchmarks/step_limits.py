@@ -8,11 +8,14 @@ measured seeds: 1.5 times it, rounded up to a multiple of 500, so that a plan wi
 samples (the planner draws its own) still fits.
 
 The measurements are ``benchmarks/skill_success.py`` outputs, one JSON file per variant under
-``benchmarks/results/step_limits/``, named after the id (made with ``--out``, as below).
+``benchmarks/results/step_limits/``, named after the id (made with ``--out``, as below). New
+measurements use development seeds (1000 on, the tool's default); the committed files record
+the env reset seeds they were measured on (``seeds``).
 ``python benchmarks/step_limits.py`` prints the markdown table of ``step_limits.md`` and exits
 non-zero when a registered limit disagrees with the rule (a test checks the same).
 
-    python benchmarks/skill_success.py pickplace --env kinder/ScoopPour3D-o20-v0 --seeds 0-2 \\
+    python benchmarks/skill_success.py pickplace --env kinder/ScoopPour3D-o20-v0 \\
+        --seeds 1000-1002 \\
         --out benchmarks/results/step_limits/ScoopPour3D-o20.json
     python benchmarks/step_limits.py
 """
