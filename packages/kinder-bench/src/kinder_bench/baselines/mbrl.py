@@ -26,6 +26,13 @@ Reward and termination come from the env's own goal check (``goal_reached``) and
 *predicted* state, as the issue specifies (the upstream code evaluated them on the current state).
 Features of the env that the dataset does not hold are kept fixed during rollouts.
 
+Planning speed: the agent scores the MPC's candidates together (:class:`LearnedModelRollouts`,
+with the MPC's ``batched`` argument, the default): one model call per step for all live
+candidates, each of whose rows is computed exactly as a one-row call computes it (a stack of
+one-row products, not one matrix product, whose BLAS kernel may round differently), the goal
+check vectorised on the Kinematic2D families with a batched world and the −1 reward without a
+call where the env does not override it. The costs, hence the actions, equal the one-by-one loop's.
+
 Held-out evaluation (:func:`open_loop_errors`): a deterministic 10% of the episodes (at least one)
 is held out; from every start frame the model is rolled out open loop for ``k`` steps on the
 recorded actions, and the error against the recorded state is reported as the mean L2 norm in
@@ -48,7 +55,13 @@ from numpy.typing import NDArray
 
 from kinder_bench.agents.base import needs_checkpoint
 from kinder_bench.baselines.demo_data import read_dataset_spec, resolve_dataset_env
-from kinder_bench.baselines.mpc import MPCAgent, MPCArgs
+from kinder_bench.baselines.mpc import (
+    MPCAgent,
+    MPCArgs,
+    RolloutModel,
+    batched_goal,
+    lockstep_costs,
+)
 from kinder_bench.results import package_versions, write_json
 from kinder_bench.training.checkpoints import (
     MARKER,
@@ -58,6 +71,7 @@ from kinder_bench.training.checkpoints import (
 )
 from kinder_bench.training.checkpoints import save_checkpoint as save_checkpoint_dir
 from kinder_bench.training.csvlog import CsvLog
+from kinder_core import ObjectCentricEnv, ObjectCentricState
 
 if TYPE_CHECKING:
     import torch
@@ -65,6 +79,7 @@ if TYPE_CHECKING:
     from kinder_gym.demos.record import EpisodeRecord
 
 FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
 ANGLE_FEATURES = ("theta", "yaw")
 EVAL_HORIZONS = (1, 10)
 
@@ -178,6 +193,16 @@ def split_episodes(
     )
 
 
+def _dense(x: FloatArray, weight: FloatArray, bias: FloatArray, row_stable: bool) -> FloatArray:
+    """``x @ weight.T + bias``; with ``row_stable`` every row is its own one-row product, so a
+    row's result does not depend on the other rows of the batch."""
+    if row_stable:
+        out: FloatArray = (x[:, None, :] @ weight.T)[:, 0, :] + bias
+        return out
+    out = x @ weight.T + bias
+    return out
+
+
 def _silu(x: FloatArray) -> FloatArray:
     """``x * sigmoid(x)``, without overflow for large ``|x|`` (rollouts far from the data)."""
     out: FloatArray = x * 0.5 * (1.0 + np.tanh(0.5 * x))
@@ -204,7 +229,11 @@ class DeltaModel:
     angle: NDArray[np.bool_]
     names: tuple[str, ...]
 
-    def predict(self, state: FloatArray, action: FloatArray) -> FloatArray:
+    def predict(
+        self, state: FloatArray, action: FloatArray, row_stable: bool = False
+    ) -> FloatArray:
+        """Next states of ``(B, state)`` under ``(B, action)``; ``row_stable``: each row exactly
+        as a one-row call computes it (slower for large batches)."""
         x = np.concatenate(
             [
                 (state - self.state_mean) / self.state_std,
@@ -213,10 +242,10 @@ class DeltaModel:
             axis=-1,
         )
         w = self.weights
-        h = _silu(x @ w["trunk.0.weight"].T + w["trunk.0.bias"])
-        h = _silu(h @ w["trunk.2.weight"].T + w["trunk.2.bias"])
-        robot = h @ w["robot_head.weight"].T + w["robot_head.bias"]
-        env = h @ w["env_head.weight"].T + w["env_head.bias"]
+        h = _silu(_dense(x, w["trunk.0.weight"], w["trunk.0.bias"], row_stable))
+        h = _silu(_dense(h, w["trunk.2.weight"], w["trunk.2.bias"], row_stable))
+        robot = _dense(h, w["robot_head.weight"], w["robot_head.bias"], row_stable)
+        env = _dense(h, w["env_head.weight"], w["env_head.bias"], row_stable)
         delta = np.empty(robot.shape[:-1] + self.delta_mean.shape)
         delta[..., self.robot_index] = robot
         delta[..., self.env_index] = env
@@ -495,6 +524,9 @@ class MBRLAgent(MPCAgent):
         state: FloatArray = np.array(obs, dtype=np.float64)
         return state
 
+    def fast_model(self) -> RolloutModel | None:
+        return LearnedModelRollouts(self)
+
     def transition(self, state: Any, action: FloatArray) -> tuple[Any, float, bool]:
         vec = np.asarray(state, dtype=np.float64)
         action = self.clip(action)
@@ -505,3 +537,47 @@ class MBRLAgent(MPCAgent):
         terminated = bool(self._model.goal_reached(next_state))
         reward = float(self._model.reward(box.devectorize(vec), action, next_state, terminated))
         return nxt, reward, terminated
+
+
+class LearnedModelRollouts:
+    """MBRL's candidates stepped together on the learned model, with exactly the costs of
+    :meth:`MBRLAgent.transition`'s one-by-one loop (see the module docstring)."""
+
+    def __init__(self, agent: MBRLAgent) -> None:
+        model = agent.model
+        box = model.box_space
+        self.agent = agent
+        self.model = model
+        self.layout = box.layout
+        order = [box.layout.index(o, f) for o in box.objects for f in o.type.features]
+        self._to_layout = np.argsort(np.asarray(order, dtype=np.intp))
+        self._goal = batched_goal(model)
+        self._default_reward = type(model).reward is ObjectCentricEnv.reward
+
+    def costs(self, state: Any, plans: FloatArray) -> tuple[FloatArray, int]:
+        agent, model, layout = self.agent, self.model, self.layout
+        index = agent._index
+        low, high = agent.action_space.low, agent.action_space.high
+
+        def step(vecs: FloatArray, actions: FloatArray) -> tuple[FloatArray, FloatArray, BoolArray]:
+            actions = np.clip(actions, low, high)
+            nxt = vecs.copy()
+            nxt[:, index] = agent.delta_model.predict(vecs[:, index], actions, row_stable=True)
+            data = nxt[:, self._to_layout]
+            if self._goal is not None:
+                terminated: BoolArray = np.asarray(self._goal(data), dtype=bool)
+            else:
+                terminated = np.array(
+                    [model.goal_reached(ObjectCentricState(layout, d)) for d in data]
+                )
+            if self._default_reward:
+                rewards: FloatArray = np.full(len(nxt), -1.0)
+            else:
+                rewards = np.array([
+                    float(model.reward(ObjectCentricState(layout, v[self._to_layout]), a,
+                                       ObjectCentricState(layout, d), bool(t)))
+                    for v, a, d, t in zip(vecs, actions, data, terminated)
+                ])  # fmt: skip
+            return nxt, rewards, terminated
+
+        return lockstep_costs(step, np.asarray(state, dtype=np.float64), plans)

@@ -251,21 +251,37 @@ def plain_cost(
     return cost, len(plan)
 
 
+def _batched_world(env: ObjectCentricEnv) -> Any:
+    """The Kinematic2D family's batched world of ``env``, or None (another kind of env, or a
+    family without one)."""
+    if not _instance_of(env, "kinder_garden2d.kinematic2d.base", "Kinematic2DEnv"):
+        return None
+    from kinder_garden2d.kinematic2d.batched.families import batched_world
+
+    try:
+        return batched_world(env)  # type: ignore[arg-type]
+    except ValueError:  # a family without a batched world
+        return None
+
+
+def batched_goal(env: ObjectCentricEnv) -> Callable[[FloatArray], BoolArray] | None:
+    """The env's ``goal_reached`` over ``(N, D)`` state arrays (layout order), bit for bit the
+    single env's, where it has one (the Kinematic2D families with a batched world), else None."""
+    world = _batched_world(env)
+    if world is None:
+        return None
+    goal: Callable[[FloatArray], BoolArray] = world.goal
+    return goal
+
+
 def env_fast_model(
     env: ObjectCentricEnv, args: MPCArgs, low: FloatArray, high: FloatArray
 ) -> RolloutModel | None:
     """The fast rollout model of an env (see the module docstring), or None (plain loop)."""
     if _instance_of(env, "kinder_garden3d.dynamic3d.env", "Dynamic3DEnv"):
         return ThreadedCloneRollouts(env, args.num_rollouts, args.rollout_threads)
-    if _instance_of(env, "kinder_garden2d.kinematic2d.base", "Kinematic2DEnv"):
-        from kinder_garden2d.kinematic2d.batched.families import batched_world
-
-        try:
-            world = batched_world(env)  # type: ignore[arg-type]
-        except ValueError:  # a family without a batched world
-            return None
-        return BatchedWorldRollouts(world, low, high)
-    return None
+    world = _batched_world(env)
+    return None if world is None else BatchedWorldRollouts(world, low, high)
 
 
 class MPCAgent(Agent[MPCArgs]):
