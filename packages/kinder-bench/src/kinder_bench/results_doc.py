@@ -74,8 +74,7 @@ DIFFUSION_REASON = (
 #: Agents that run on this project's CPUs, and the command that fills their cells.
 CPU_COMMANDS = {
     "bilevel_planning": "kinder bench run -a bilevel_planning -e <env> --seeds 0-4 --episodes 50",
-    "mpc": "kinder bench run -a mpc -e <env> --seeds 0-4 --episodes 50 "
-    "(replan_interval per env: kinder_bench/data/paper_settings.csv)",
+    "mpc": "kinder bench run -a mpc -e <env> --arg replan_interval=<N> --seeds 0-4 --episodes 50",
     "mbrl": "python benchmarks/mbrl.py --env <env> --epochs 1000 --seeds 0-4 --episodes 50 "
     "--out runs/learning/mbrl",
     "gsc": "kinder train gsc --env <env> --out runs/gsc/ckpt/<env>; then kinder bench run -a gsc "
@@ -101,8 +100,8 @@ def _extra_columns(path: Path) -> list[dict[str, str]]:
 def _committed_reason(agent: str, env_id: str) -> str:
     """Why a paper cell has no run of any kind, independent of this machine (an agent's own
     :meth:`~kinder_bench.agents.Agent.unavailable` depends on checkpoints, endpoints and GPUs
-    here, so the page would differ between machines), with the command that fills it."""
-    del env_id
+    here, so the page would differ between machines), with the command that fills it and, where
+    a committed page measured it, the cost."""
     if agent not in AGENTS:
         return "the project has no such agent yet"
     if agent == "vla":
@@ -114,9 +113,29 @@ def _committed_reason(agent: str, env_id: str) -> str:
     command = CPU_COMMANDS.get(
         agent, f"kinder bench run -a {agent} -e <env> --seeds 0-4 --episodes 50"
     )
+    if agent in ("ppo", "sac"):
+        return (
+            f"{agent} runs on CPU here but was not trained on these envs; each needs 5 seeds × 1M "
+            "env steps, 1.4–5.6 core-hours at the 250–1,000 steps/s one core trained the three "
+            "trained envs (benchmarks/results/rl.md; these envs' throughput is not measured): "
+            f"`{command}`"
+        )
+    if agent == "gsc" and env_id == "kinder/SweepIntoDrawer3D-o5-v0":
+        return (
+            "gsc on SweepIntoDrawer3D-o5 was not run; its 30 training demonstrations alone cost "
+            "~25 CPU-minutes (the bilevel planner needs ~19 s per plan and solves 0.40 of the "
+            "instances, benchmarks/results/gsc.md), before perturbations, training and the 250 "
+            f"evaluation episodes: `{command}`"
+        )
+    where = ""
+    if agent == "mpc":
+        where = (
+            " (N, and SweepIntoDrawer3D-o5's --max-steps 700, from upstream's env configs in "
+            "kinder_bench/data/paper_settings.csv)"
+        )
     return (
         f"{agent} runs on CPU here but has not run at any protocol; its cost per episode on this "
-        f"machine is not measured (the paper's Inf-Time is in the cell): `{command}`"
+        f"machine is not measured (the paper's Inf-Time is in the cell): `{command}`{where}"
     )
 
 
@@ -339,9 +358,7 @@ def sr_quotes(
                 envs = _envs_in(line, env_ids) or _envs_in(heading, env_ids)
                 methods = _named(line, names) or _named(heading, names)
                 if envs:
-                    quotes.append(
-                        Quote(page, n, m.group(1), frozenset(envs), frozenset(methods))
-                    )
+                    quotes.append(Quote(page, n, m.group(1), frozenset(envs), frozenset(methods)))
             continue
         cells = _cells(line)
         if header is None:
