@@ -41,8 +41,10 @@ MARKER_HALF = (0.01, 0.01, 0.035)
 #: pybullet robot uses (its gripper, like ours, is mounted a quarter turn about the approach axis,
 #: so the tool frame's x axis is the gripper's closing direction).
 TOOL_OFFSET = 0.12
-#: Quarter turn about z from the gripper frame back to the flange frame (x, y, z, w).
-_GRIPPER_TO_FLANGE = (0.0, 0.0, -math.sqrt(0.5), math.sqrt(0.5))
+#: Quarter turn about z from the gripper frame back to the flange frame (x, y, z, w): the gripper
+#: is the flange frame turned by −π/2 about z (URDF rpy (π, 0, π/2) from the bracelet = the
+#: flange's roll π followed by −π/2 about the new z).
+_GRIPPER_TO_FLANGE = (0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5))
 #: Arm links checked against each other for self-collisions, in chain order, and the finger links
 #: checked against all but the last two of them. Neighbours in the chain are not checked (they
 #: touch at their joint); this is the pair list of upstream's Gen3 + 2F-85 pybullet robot, mapped

@@ -63,7 +63,7 @@ def top_down_quat(yaw: float) -> FloatArray:
 
 
 #: A quarter turn about z (x, y, z, w): the gripper (pinch) frame in the tool frame.
-_TOOL_TO_GRIPPER = np.array([0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)])
+_TOOL_TO_GRIPPER = np.array([0.0, 0.0, -math.sqrt(0.5), math.sqrt(0.5)])
 
 
 def tool_to_pinch(pos: FloatArray, quat: FloatArray) -> tuple[FloatArray, FloatArray]:
