@@ -5,6 +5,7 @@ Command groups, one module each, over :mod:`kinder_bench.cli.common`:
 
 * :mod:`~kinder_bench.cli.envs`: ``kinder envs``, ``show``, ``agents``, ``rollout``;
 * :mod:`~kinder_bench.cli.bench`: ``kinder bench run`` / ``report``;
+* :mod:`~kinder_bench.cli.campaign`: ``kinder bench campaign``, a whole campaign from one file;
 * :mod:`~kinder_bench.cli.demo`: ``kinder demo``, the showcase run;
 * :mod:`~kinder_bench.cli.demos`: ``kinder demos ...``, demonstration datasets;
 * :mod:`~kinder_bench.cli.train`: ``kinder train ...``, the learning baselines' trainers;
@@ -17,6 +18,7 @@ from __future__ import annotations
 import typer
 
 from kinder_bench.cli.bench import bench_app
+from kinder_bench.cli.campaign import campaign_cmd
 from kinder_bench.cli.demo import demo
 from kinder_bench.cli.demos import demos_app
 from kinder_bench.cli.envs import agents, envs, rollout, show
@@ -31,6 +33,7 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
+bench_app.command("campaign")(campaign_cmd)
 app.add_typer(bench_app, name="bench")
 app.add_typer(train_app, name="train")
 app.add_typer(demos_app, name="demos")
