@@ -6,7 +6,7 @@ fixture per id (format: ``tools/conformance/README.md``).
 
 Usage:
     python tools/conformance/record_upstream.py ID [ID ...] | --family NAME
-        [--out DIR] [--seeds N] [--full K] [--random R] [--steps S] [--scripts PATH]
+        [--out DIR] [--seeds N] [--full K] [--random R] [--steps S] [--scripts PATH | --no-scripts]
 
 ``--family`` takes a category (Kinematic2D, Dynamic2D, Kinematic3D, Dynamic3D) or a family name
 (StickButton2D) and expands to our registered ids. Without ``--out`` each fixture goes to
@@ -72,6 +72,8 @@ def upstream_env() -> dict[str, str]:
 
 def record(python: Path, env_id: str, out_dir: Path, args: argparse.Namespace) -> dict[str, object]:
     scripts = args.scripts if args.scripts is not None else default_scripts(env_id)
+    if args.no_scripts:
+        scripts = None
     request = {
         "env_id": env_id,
         "out": str((out_dir / fixture_name(env_id)).resolve()),
@@ -106,6 +108,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--random", type=int, default=3, help="random-action trajectories")
     parser.add_argument("--steps", type=int, default=60, help="steps per random trajectory")
     parser.add_argument("--scripts", type=Path, help="scripts module (numpy only)")
+    parser.add_argument("--no-scripts", action="store_true", help="record no scripted runs")
     args = parser.parse_args(argv)
     ids = list(args.ids) + (expand_family(args.family) if args.family else [])
     if not ids:

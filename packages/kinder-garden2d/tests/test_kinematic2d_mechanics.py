@@ -189,15 +189,17 @@ def test_stick_press_and_terminal_reward() -> None:
     assert is_pressed(nxt, b1) and term and reward == 0.0
 
 
-def test_suction_zone_alone_does_not_press() -> None:
+def test_suction_zone_presses_only_while_the_vacuum_is_on() -> None:
+    """Upstream tests buttons against every robot body, the suction zone included when on."""
     env, s = _stick_env()
     b0 = env.buttons[0]
     g = robot_geometry(s[env.robot])
     s.set(b0, "x", g.suction[0] + 0.05 + 0.002)  # the circle's edge inside the suction zone
     s.set(b0, "y", g.suction[1])
-    s.set(env.robot, "vacuum", 1.0)
-    nxt, *_ = env.transition(s, act(vac=1.0))
+    nxt, *_ = env.transition(s, act(vac=0.0))
     assert not is_pressed(nxt, b0)
+    nxt, *_ = env.transition(s, act(vac=1.0))
+    assert is_pressed(nxt, b0)
 
 
 def test_table_blocks_the_base_but_not_the_arm() -> None:
@@ -221,7 +223,7 @@ def _hook_state() -> tuple[PushPullHook2DEnv, ObjectCentricState]:
     s.set(env.movable_button, "x", ax + 0.3)
     s.set(env.movable_button, "y", 1.6 + 0.05 + 0.01)
     s.set(env.target_button, "x", ax + 0.3)
-    s.set(env.target_button, "y", 1.78)
+    s.set(env.target_button, "y", 1.765)
     for b in (env.movable_button, env.target_button):
         for f, v in zip(("color_r", "color_g", "color_b"), BUTTON_RED):
             s.set(b, f, v)
@@ -235,11 +237,11 @@ def test_held_hook_pushes_the_button_and_presses() -> None:
     my0 = s.get(env.movable_button, "y")
     nxt, reward, term = env.transition(s, act(dy=0.05, vac=1.0))
     assert nxt.get(env.hook, "y") == pytest.approx(1.65)
-    # Pushed by the overlap: now just touching the arm's top edge at y = 1.65.
-    assert nxt.get(env.movable_button, "y") == pytest.approx(1.65 + 0.05)
-    assert nxt.get(env.movable_button, "y") > my0
+    # Upstream's rule: the button moves by the vector from the hook outline's closest point
+    # (on the arm's top edge, y = 1.65) to its centre (y = 1.66): 0.01 up, still overlapping.
+    assert nxt.get(env.movable_button, "y") == pytest.approx(my0 + 0.01)
     assert nxt.get(env.movable_button, "x") == pytest.approx(s.get(env.movable_button, "x"))
-    # Centres now 0.08 apart (< 0.10): both buttons pressed, the goal reached, reward 0.
+    # Centres now 0.095 apart (< 0.10): both buttons pressed, the goal reached, reward 0.
     assert is_pressed(nxt, env.movable_button) and is_pressed(nxt, env.target_button)
     assert term and reward == 0.0
 
@@ -253,9 +255,16 @@ def test_pushing_into_a_wall_is_reverted() -> None:
     s.set(env.movable_button, "x", 3.5 - 0.01 - 0.05)
     s.set(env.movable_button, "y", 1.575)
     assert not env.world.in_collision(s.data), env.world.colliding_pairs(s.data)
+    # Overlapping by 0.005 pushes the button by its centre's distance to the tip (0.045), into
+    # the wall: the whole step is reverted, hook and robot included.
+    assert env.transition(s, act(dx=0.01, vac=1.0))[0] == s
     assert env.transition(s, act(dx=0.02, vac=1.0))[0] == s
-    nudged, *_ = env.transition(s, act(dx=0.01, vac=1.0))  # pushed 0.005, still clear
-    assert nudged.get(env.movable_button, "x") == pytest.approx(3.5 - 0.06 + 0.005)
+    # Away from the wall the same nudge pushes the button by 0.045.
+    s.set(env.hook, "x", ax - 0.2)
+    place_robot(env, s, ax - 0.31, 0.8, 0.0)
+    s.set(env.movable_button, "x", 3.5 - 0.21 - 0.05)
+    nudged, *_ = env.transition(s, act(dx=0.01, vac=1.0))
+    assert nudged.get(env.movable_button, "x") == pytest.approx(3.5 - 0.26 + 0.045)
 
 
 def test_unheld_hook_is_an_obstacle_for_the_arm() -> None:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinder_core import Object, ObjectCentricState
+from kinder_core.spaces import FeatureBounds
 from kinder_garden2d.kinematic2d.base import Kinematic2DConfig, Kinematic2DEnv
 from kinder_garden2d.kinematic2d.object_types import (
     BLACK,
@@ -68,8 +69,11 @@ class Motion2DEnv(Kinematic2DEnv):
     ## Starting State
     Robot: x ~ U[0.25, 0.30], y ~ U[0.30, 2.20], θ ~ U[−π, π], arm retracted, vacuum off.
     Target region: a fixed 0.25 × 0.25 square with its bottom-left corner at x ~ U[2.20, 2.25],
-    y ~ U[0.30, 2.20]. Passages: walls of width 0.01 at x = linspace(0.5, 1.99, N); each gap's
-    bottom edge ~ U[0.2, 2.3] and height ~ U[0.25, 0.40]. The robot never collides initially.
+    y ~ U[0.30, 2.20]. Passages: walls of width 0.01, equally spaced with left sides from 0.5
+    to 1.98 (upstream's spacing); each gap's bottom edge ~ U[0.2, 2.3] and height
+    ~ U[0.25, 0.40]. A gap reaching above the world leaves the upper obstacle at y > 2.5 with a
+    negative height (as upstream; it lies outside the world). The robot never collides
+    initially. The draws are upstream's, in its order, so a seed gives upstream's initial state.
 
     ## Episode End
     1. Termination: the robot's base centre lies in the target region (`robot_in_region`).
@@ -85,9 +89,6 @@ class Motion2DEnv(Kinematic2DEnv):
     `kinder/Motion2D-p{0,1,2,3,4,5}-v0`: 0 to 5 passages.
 
     ## Deviations
-    * When a sampled gap reaches above the world (bottom + height > 2.5), the obstacle above it
-      is kept with zero height at the top edge (upstream would build a rectangle of negative
-      height outside the world), so the vector layout stays fixed.
     * The outer walls are 1.0 thick instead of 2 × the step size; they are not observed, and
       thicker walls also stop a held object swung on the arm from leaving the world.
     * Rendering is a numpy rasterizer (not matplotlib): same colours, the robot drawn on top.
@@ -113,11 +114,27 @@ class Motion2DEnv(Kinematic2DEnv):
     def box_objects(self) -> list[Object]:
         return [self.robot, self.target_region, *sorted(self.obstacles)]
 
+    def feature_bounds(self) -> FeatureBounds:
+        """The base bounds, widened for an upper obstacle that upstream leaves above the world
+        (y up to the highest gap top, height down to minus the overshoot)."""
+        bounds = dict(super().feature_bounds())
+        c = self.config
+        assert isinstance(c, Motion2DConfig)
+        over = c.gap_bottom[1] + c.gap_height[1] - c.world_max_y
+        if over > 0:
+            bounds["y"] = (bounds["y"][0], c.world_max_y + over)
+            bounds["height"] = (-over, bounds["height"][1])
+        return bounds
+
     def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
         c = self.config
         assert isinstance(c, Motion2DConfig)
         top = c.world_max_y
-        wall_xs = np.linspace(c.passage_min_x, c.passage_max_x, self.num_passages)
+        # Upstream's wall spacing: the gaps between walls are equal and the last wall's left
+        # side is at passage_max_x − wall_width.
+        n, w = self.num_passages, c.wall_width
+        spacing = (c.passage_max_x - c.passage_min_x - n * w) / (n - 1) if n > 1 else 0.0
+        wall_xs = [c.passage_min_x + i * (w + spacing) for i in range(n)]
         static_rect = [1.0, *BLACK, ZOrder.ALL]
 
         def sample() -> ObjectCentricState | None:
@@ -130,7 +147,7 @@ class Motion2DEnv(Kinematic2DEnv):
                 self.target_region: [
                     rng.uniform(*c.target_init_x),
                     rng.uniform(*c.target_init_y),
-                    0.0,
+                    rng.uniform(0.0, 0.0),  # upstream draws the region's theta from [0, 0]
                     1.0,
                     *PURPLE,
                     ZOrder.NONE,
@@ -140,7 +157,9 @@ class Motion2DEnv(Kinematic2DEnv):
             }
             for i, wx in enumerate(wall_xs):
                 bottom = rng.uniform(*c.gap_bottom)
-                gap_top = min(bottom + rng.uniform(*c.gap_height), top)
+                # As upstream: a gap reaching above the world leaves the upper obstacle above the
+                # top edge with a negative height (a box outside the world, inside the wall).
+                gap_top = bottom + rng.uniform(*c.gap_height)
                 feats[self.obstacles[2 * i]] = [
                     wx,
                     c.world_min_y,

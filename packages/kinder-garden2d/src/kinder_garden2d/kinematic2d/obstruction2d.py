@@ -41,6 +41,7 @@ class Obstruction2DConfig(Kinematic2DConfig):
     surface_init_x: tuple[float, float] = (0.1, GOLDEN_RATIO - 0.1)
     obstruction_size: tuple[float, float] = (0.05, 0.2)
     obstruction_on_target_prob: float = 0.9
+    obstruction_init_x: tuple[float, float] = (0.1, GOLDEN_RATIO - 0.1)
     # Blocks rest this far above the table so that they do not touch it.
     rest_gap: float = 1e-6
     on_tolerance: float = 0.025
@@ -89,8 +90,9 @@ class Obstruction2DEnv(Kinematic2DEnv):
     (y = 0.1 + 1e-6), x ~ U[0.1, φ − 0.1]. Target surface: y = 0, height 0.1 (the table's top
     layer), x ~ U[0.1, φ − 0.1], width = block width + U[0.02, 0.05]. Each obstruction: size
     ~ U[0.05, 0.2]², resting on the table, x ~ U[surface.x − w, surface.x + surface.width] with
-    probability 0.9, else anywhere on the table. A draw is rejected (up to 10 000 times) if any
-    two things collide, the surface sticks out of the table, or the goal already holds.
+    probability 0.9, else x ~ U[0.1, φ − 0.1]. A draw is rejected (up to 10 000 times) if any
+    two things collide, the surface sticks out of the table, or the goal already holds. The
+    draws are upstream's, in its order, so a seed gives upstream's initial state.
 
     ## Episode End
     1. Termination: `is_on(target_block, target_surface, tol=0.025)`: the block's two lowest
@@ -151,20 +153,26 @@ class Obstruction2DEnv(Kinematic2DEnv):
         rest_y = c.table_height + c.rest_gap
 
         def sample() -> ObjectCentricState | None:
-            feats: dict[Object, list[float]] = {
-                self.robot: self.robot_features(
-                    rng.uniform(*c.robot_init_x), rng.uniform(*c.robot_init_y), c.robot_init_theta
-                )
-            }
+            # Upstream's draws, in its order (a pose is x, y, theta, each drawn even where its
+            # bounds are one value): robot pose, block pose, block width and height, surface
+            # pose, surface extra width, then per obstruction its width, height, on-target
+            # coin and pose.
+            rx, ry = rng.uniform(*c.robot_init_x), rng.uniform(*c.robot_init_y)
+            rth = rng.uniform(c.robot_init_theta, c.robot_init_theta)
+            feats: dict[Object, list[float]] = {self.robot: self.robot_features(rx, ry, rth)}
+            bx, by, bth = (
+                rng.uniform(*c.block_init_x),
+                rng.uniform(rest_y, rest_y),
+                rng.uniform(0, 0),
+            )
             bw, bh = rng.uniform(*c.block_size), rng.uniform(*c.block_size)
-            bx = rng.uniform(*c.block_init_x)
-            feats[self.target_block] = [bx, rest_y, 0.0, 0.0, *PURPLE, ZOrder.ALL, bw, bh]
+            feats[self.target_block] = [bx, by, bth, 0.0, *PURPLE, ZOrder.ALL, bw, bh]
+            sx, sy, sth = rng.uniform(*c.surface_init_x), rng.uniform(0, 0), rng.uniform(0, 0)
             sw = bw + rng.uniform(*c.surface_extra_width)
-            sx = rng.uniform(*c.surface_init_x)
             feats[self.target_surface] = [
                 sx,
-                0.0,
-                0.0,
+                sy,
+                sth,
                 1.0,
                 *PURPLE,
                 ZOrder.NONE,
@@ -176,8 +184,9 @@ class Obstruction2DEnv(Kinematic2DEnv):
                 if rng.uniform() < c.obstruction_on_target_prob:
                     x = rng.uniform(sx - w, sx + sw)
                 else:
-                    x = rng.uniform(c.world_min_x, c.world_max_x - w)
-                feats[obstruction] = [x, rest_y, 0.0, 0.0, *OBSTRUCTION_RED, ZOrder.ALL, w, h]
+                    x = rng.uniform(*c.obstruction_init_x)
+                y, th = rng.uniform(rest_y, rest_y), rng.uniform(0, 0)
+                feats[obstruction] = [x, y, th, 0.0, *OBSTRUCTION_RED, ZOrder.ALL, w, h]
             if sx < c.world_min_x or sx + sw > c.world_max_x:
                 return None
             # Every block rests upright on the table, so two blocks collide exactly when their

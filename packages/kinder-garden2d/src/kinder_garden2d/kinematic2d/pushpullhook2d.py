@@ -9,7 +9,7 @@ import numpy as np
 
 from kinder_core import Object, ObjectCentricState
 from kinder_core.state import FloatArray
-from kinder_garden2d.geometry import circle_push_out_of_obb, lshape_obbs, obb_circle_overlap
+from kinder_garden2d.geometry import lshape_obbs, obb_circle_overlap
 from kinder_garden2d.kinematic2d.base import Kinematic2DEnv
 from kinder_garden2d.kinematic2d.crv import (
     Bodies,
@@ -59,8 +59,9 @@ class PushPullHook2DEnv(Kinematic2DEnv):
     robot's reach. An L-shaped brown hook lies across the table edge. The robot picks up the
     hook with its vacuum gripper and uses it to push (or pull, with the inside of the L) the
     movable button until the two buttons' centres are closer than 0.10; both then turn green.
-    While the robot holds an object that runs into a movable object, that object is pushed out
-    of the way (by the smallest translation that separates them) instead of blocking the step.
+    While the robot holds the hook and it overlaps the movable button, the button moves by the
+    vector from the hook outline's closest point to the button's centre (upstream's rule: a few
+    millimetres per step, not the overlap depth); the step is then checked for collisions.
 
     ## Observation Space
     The Box view concatenates, in this order: `robot` (crv_robot: x, y, theta, base_radius,
@@ -102,10 +103,6 @@ class PushPullHook2DEnv(Kinematic2DEnv):
     `kinder/PushPullHook2D-v0` only.
 
     ## Deviations
-    * Pushing moves a touched circle by the minimum translation that separates it from the held
-      object's boxes (two passes over the L's boxes); upstream moves it by the vector between
-      the shapes' closest points. Only circles are pushed (the movable button is the only
-      movable object besides the hook).
     * Pressed buttons stay green even if pushed apart again (latching, as in StickButton2D).
     * The L-shape convention above is this implementation's (the anchor is the L's outer
       corner).
@@ -132,6 +129,9 @@ class PushPullHook2DEnv(Kinematic2DEnv):
             push=self._push,
         )
         idx = self.layout.indices
+        self._hook_idx = idx(
+            [self.hook], ["x", "y", "theta", "width", "length_side1", "length_side2"]
+        )[0]
         self._movable_idx = idx([self.movable_button], ["x", "y", "radius"])[0]
         self._target_idx = idx([self.target_button], ["x", "y", "radius"])[0]
         self._color_idx = idx(
@@ -142,20 +142,31 @@ class PushPullHook2DEnv(Kinematic2DEnv):
         return [self.robot, self.hook, self.movable_button, self.target_button]
 
     def _push(self, world: KinematicWorld, data: FloatArray, held: IntArray) -> IntArray:
-        """Push the movable button out of the held object's boxes (in place)."""
-        button = world.index[self.movable_button]
-        if button in held:
+        """Upstream's contact rule (in place): while the robot holds the hook or the movable
+        button and it overlaps the other, that other one moves by the vector from the hook's
+        boundary point closest to the button's centre to that centre.
+
+        The step is the centre's distance to the L's outline, not the overlap depth, so a
+        pushed button moves a few millimetres per step (the same vector moves the hook when
+        the button is the held object).
+        """
+        hook, button = world.index[self.hook], world.index[self.movable_button]
+        hook_held, button_held = hook in held, button in held
+        if hook_held == button_held:
             return _EMPTY
-        bodies = world.object_bodies(data)
-        boxes = bodies.obbs[np.isin(bodies.rowner, held)]
-        circle = data[self._movable_idx].copy()
-        if not boxes.size or not obb_circle_overlap(boxes, circle[None]).any():
+        lx, ly, lth, lw, l1, l2 = data[self._hook_idx]
+        circle = data[self._movable_idx]
+        if not obb_circle_overlap(lshape_obbs(lx, ly, lth, lw, l1, l2), circle[None]).any():
             return _EMPTY
-        for _ in range(2):
-            for box in boxes:
-                circle[:2] += circle_push_out_of_obb(box, circle)
-        data[self._movable_idx[:2]] = circle[:2]
-        return np.array([button], dtype=np.intp)
+        px, py = lshape_closest_boundary_point(lx, ly, lth, lw, l1, l2, circle[0], circle[1])
+        dx, dy = circle[0] - px, circle[1] - py
+        if hook_held:
+            data[self._movable_idx[0]] += dx
+            data[self._movable_idx[1]] += dy
+            return np.array([button], dtype=np.intp)
+        data[self._hook_idx[0]] += dx
+        data[self._hook_idx[1]] += dy
+        return np.array([hook], dtype=np.intp)
 
     def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
         c = self.config
@@ -238,3 +249,28 @@ class PushPullHook2DEnv(Kinematic2DEnv):
         terminated: bool,
     ) -> float:
         return 0.0 if terminated else -1.0
+
+
+def lshape_closest_boundary_point(
+    x: float, y: float, theta: float, width: float, side1: float, side2: float, px: float, py: float
+) -> tuple[float, float]:
+    """The point of an L-shape's outline closest to ``(px, py)``.
+
+    The outline is the L's six edges in upstream's order (outer corner at ``(x, y)``; the long
+    side along -x, the short side along -y, before rotation by ``theta``); ties go to the first
+    edge, as upstream's strict ``<`` scan does.
+    """
+    local = np.array(
+        [(0, 0), (-side1, 0), (-side1, -width), (-width, -width), (-width, -side2), (0, -side2)],
+        dtype=np.float64,
+    )
+    c, s = math.cos(theta), math.sin(theta)
+    vx = (local[:, 0] * c - local[:, 1] * s) + x
+    vy = (local[:, 0] * s + local[:, 1] * c) + y
+    x1, y1 = vx, vy
+    x2, y2 = np.roll(vx, -1), np.roll(vy, -1)
+    dx, dy = x2 - x1, y2 - y1
+    t = np.clip(((px - x1) * dx + (py - y1) * dy) / (dx * dx + dy * dy), 0.0, 1.0)
+    cx, cy = x1 + t * dx, y1 + t * dy
+    k = int(np.argmin(np.hypot(cx - px, cy - py)))
+    return float(cx[k]), float(cy[k])

@@ -64,9 +64,9 @@ class StickButton2DEnv(Kinematic2DEnv):
     A 3.5 × 2.5 world whose upper half (y ≥ 1.25) is a table. The robot's base cannot enter the
     table, but its arm and gripper, and the stick, pass over it. `num_buttons` red buttons lie
     anywhere in the world; a button turns green, for good, as soon as the robot (base, arm or
-    gripper) or the stick touches it. The robot reaches only about 0.15 into the table
-    (y ≈ 1.405), so buttons further up must be pressed with the stick, which the robot picks up
-    with its vacuum gripper.
+    gripper, or its suction zone while the vacuum is on) or the stick touches it. The robot
+    reaches only about 0.15 into the table (y ≈ 1.405), so buttons further up must be pressed
+    with the stick, which the robot picks up with its vacuum gripper.
 
     ## Observation Space
     The Box view concatenates, in this order: `robot` (crv_robot: x, y, theta, base_radius,
@@ -90,11 +90,12 @@ class StickButton2DEnv(Kinematic2DEnv):
     ## Starting State
     Robot on the floor: x ~ U[0.3, 3.2], y ~ U[0.3, 0.95], θ ~ U[−π, π], arm retracted, vacuum
     off. Stick (0.05 × 1.25, brown, movable, z SURFACE, upright) with its bottom-left corner at
-    x ~ U[0, 3.45], y ~ U[0.625, 1.125], so it straddles the table edge; redrawn until
-    collision-free. Buttons (radius 0.05, static) with centres uniform over the world shrunk by
-    the radius, each redrawn until it touches nothing (checked on the SURFACE layer: not the
-    robot, the stick or another button, but the table is fine), then stored with z-order NONE
-    so they never block anything.
+    x ~ U[0, 3.45], y ~ U[0.625, 1.125], so it straddles the table edge; redrawn until it
+    touches neither the robot nor the walls. Buttons (radius 0.05, static) with centres uniform
+    over the world shrunk by the radius, each redrawn until it touches neither the robot nor the
+    stick (checked on the SURFACE layer; buttons may overlap each other, as upstream's check
+    skips static pairs), then stored with z-order NONE so they never block anything. The draws
+    are upstream's, in its order, so a seed gives upstream's initial state.
 
     ## Episode End
     1. Termination: every button is pressed (`all_pressed`).
@@ -109,8 +110,6 @@ class StickButton2DEnv(Kinematic2DEnv):
     `kinder/StickButton2D-b{1,2,3,5,10}-v0`: 1 to 10 buttons.
 
     ## Deviations
-    * Pressing uses the robot's base, arm and gripper and the stick; the suction zone (a
-      non-physical sensing box) does not press buttons.
     * The outer walls are 1.0 thick instead of 2 × the step size (not observed; stops a held
       stick swung on the arm from leaving the world).
     * Rendering is a numpy rasterizer (not matplotlib).
@@ -149,46 +148,43 @@ class StickButton2DEnv(Kinematic2DEnv):
         assert isinstance(c, StickButton2DConfig)
         r = c.button_radius
         feats: dict[Object, list[float]] = {}
+        # Upstream's draws, in its order: the robot pose (never rejected; its bounds keep it
+        # clear of the walls and the table), then the stick pose (x, y and a theta drawn from
+        # [0, 0]) until the stick touches neither the robot nor the walls, then each button's
+        # (x, y) until it touches neither the robot nor the stick (static objects are not
+        # checked against each other, so buttons may overlap one another).
+        robot = self.robot_features(
+            rng.uniform(*c.robot_init_x), rng.uniform(*c.robot_init_y), rng.uniform(-np.pi, np.pi)
+        )
+        robot_b = _robot_bodies(robot)
 
-        def robot_and_stick() -> tuple[list[float], list[float]] | None:
-            robot = self.robot_features(
-                rng.uniform(*c.robot_init_x),
-                rng.uniform(*c.robot_init_y),
-                rng.uniform(-np.pi, np.pi),
-            )
+        def one_stick() -> list[float] | None:
             sx, sy = rng.uniform(*c.stick_init_x), rng.uniform(*c.stick_init_y)
-            stick_obb = obbs_from_anchor(sx, sy, 0.0, c.stick_width, c.stick_height)
-            stick = Bodies.of(stick_obb, [ZOrder.SURFACE])
-            robot_b = _robot_bodies(robot)
-            if bodies_collide(stick, robot_b) or bodies_collide(stick, self.world.constants):
+            th = rng.uniform(0.0, 0.0)
+            stick_b = Bodies.of(
+                obbs_from_anchor(sx, sy, th, c.stick_width, c.stick_height), [ZOrder.SURFACE]
+            )
+            if bodies_collide(stick_b, robot_b) or bodies_collide(stick_b, self.world.constants):
                 return None
-            if bodies_collide(robot_b, self.world.constants):
-                return None
-            return robot, [sx, sy, 0.0, 0.0, *BROWN, ZOrder.SURFACE, c.stick_width, c.stick_height]
+            return [sx, sy, th, 0.0, *BROWN, ZOrder.SURFACE, c.stick_width, c.stick_height]
 
-        robot, stick = self._rejection_sample(robot_and_stick, "the robot and the stick")
+        stick = self._rejection_sample(one_stick, "the stick clear of the robot and the walls")
         feats[self.robot] = robot
         feats[self.stick] = stick
-        placed = Bodies.concat(
-            [
-                _robot_bodies(robot),
-                Bodies.of(obbs_from_anchor(*stick[:3], *stick[8:10]), [ZOrder.SURFACE]),
-                self.world.constants,
-            ]
+        movers = Bodies.concat(
+            [robot_b, Bodies.of(obbs_from_anchor(*stick[:3], *stick[8:10]), [ZOrder.SURFACE])]
         )
+        low = (c.world_min_x + r, c.world_min_y + r)
+        high = (c.world_max_x - r, c.world_max_y - r)
         for button in self.buttons:
 
-            def one_button(placed: Bodies = placed) -> tuple[float, float] | None:
-                x = rng.uniform(c.world_min_x + r, c.world_max_x - r)
-                y = rng.uniform(c.world_min_y + r, c.world_max_y - r)
+            def one_button() -> tuple[float, float] | None:
+                x, y = rng.uniform(low, high)
                 probe = Bodies.of(circles=[[x, y, r]], circle_z=[ZOrder.SURFACE])
-                return None if bodies_collide(probe, placed) else (x, y)
+                return None if bodies_collide(probe, movers) else (float(x), float(y))
 
-            x, y = self._rejection_sample(one_button, f"{button.name} clear of everything")
+            x, y = self._rejection_sample(one_button, f"{button.name} clear of the robot and stick")
             feats[button] = [x, y, 0.0, 1.0, *BUTTON_RED, ZOrder.NONE, r]
-            placed = Bodies.concat(
-                [placed, Bodies.of(circles=[[x, y, r]], circle_z=[ZOrder.SURFACE])]
-            )
         return ObjectCentricState.from_features(feats)
 
     def _transition(self, state: ObjectCentricState, action: FloatArray) -> ObjectCentricState:
@@ -227,8 +223,10 @@ def press_touched_buttons(
     button_circle_idx: NDArray[np.intp],
     button_color_idx: NDArray[np.intp],
 ) -> None:
-    """Turn green (in place) every button that the robot's base, arm or gripper, or one of the
-    ``pressers`` rectangles (rows ``[x, y, theta, width, height]``), touches.
+    """Turn green (in place) every button that the robot's base, arm or gripper, its suction zone
+    while the vacuum is on, or one of the ``pressers`` rectangles (rows ``[x, y, theta, width,
+    height]``), touches. Upstream tests the button against every body of the robot, the suction
+    zone included (it ignores z-orders there), so a vacuum that is on presses what it overlaps.
 
     Pressed buttons stay pressed, so only the others are tested, and only those within reach of
     the robot or a presser get the exact shape tests.
@@ -238,14 +236,18 @@ def press_touched_buttons(
     if not unpressed.size:
         return
     buttons = data[button_circle_idx[unpressed]]
-    x, y, th, br, aj, _, _, gh, gw = robot.tolist()
+    x, y, th, br, aj, _, vac, gh, gw = robot.tolist()
     c, s = math.cos(th), math.sin(th)
     boxes = [
         (x + 0.5 * aj * c, y + 0.5 * aj * s, c, s, 0.5 * aj, 0.25 * gw),  # arm
         (x + aj * c, y + aj * s, c, s, 0.5 * gw, 0.5 * gh),  # gripper
     ]
+    reach = aj + 0.5 * gw
+    if vac > 0.5:  # the suction zone, as in robot_geometry
+        boxes.append((x + (aj + 1.5 * gw) * c, y + (aj + 1.5 * gw) * s, c, s, 0.5 * gw, 0.5 * gh))
+        reach = aj + 2.0 * gw
     # Bounding circles: the robot's reach, and each presser's circumcircle.
-    near = [(x, y, max(br, math.hypot(aj + 0.5 * gw, 0.5 * gh)))]
+    near = [(x, y, max(br, math.hypot(reach, 0.5 * gh)))]
     for px, py, pth, pw, ph in pressers.tolist():
         pc, ps = math.cos(pth), math.sin(pth)
         cx = px + 0.5 * (pc * pw - ps * ph)
