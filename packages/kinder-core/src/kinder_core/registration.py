@@ -111,6 +111,7 @@ def register_family(
     max_episode_steps: int,
     variant_steps: Mapping[str, int] | None = None,
     version: int = 0,
+    vector_entry_point: str | None = None,
 ) -> list[str]:
     """Register every variant of a family with gymnasium; returns the ids.
 
@@ -123,6 +124,10 @@ def register_family(
             more steps than the family's (upstream registers no limits at all, so every
             budget is this project's choice and is documented with its reason).
         version: The ``-vN`` suffix; bump it on any change of dynamics, reward or observation.
+        vector_entry_point: ``"module:Class"`` of a native vector env of the family, which
+            ``gymnasium.make_vec(id, num_envs, vectorization_mode="vector_entry_point")`` calls
+            with ``num_envs``, ``env_entry_point``, the variant's kwargs and
+            ``max_episode_steps``.
 
     Ids already registered are left alone, so importing a package twice is harmless.
     """
@@ -158,6 +163,7 @@ def register_family(
                 entry_point="kinder_core.registration:make_box_env",
                 kwargs={"env_entry_point": entry_point, **kwargs},
                 max_episode_steps=variant_steps.get(variant, max_episode_steps),
+                vector_entry_point=vector_entry_point,
             )
         ids.append(env_id)
     return ids

@@ -40,9 +40,15 @@ FAMILIES: dict[str, tuple[str, int, dict[str, dict[str, object]]]] = {
 }
 
 
+# Every Kinematic2D id's native vector env (batched numpy, bit-exact with the single env).
+VECTOR_ENTRY_POINT = f"{_MODULE}.batched.vector_env:Kinematic2DVectorEnv"
+
+
 def register_kinematic2d() -> list[str]:
     """Register every Kinematic2D id with gymnasium; returns the ids."""
     ids: list[str] = []
     for family, (entry_point, max_steps, variants) in FAMILIES.items():
-        ids += register_family(family, entry_point, variants, max_steps)
+        ids += register_family(
+            family, entry_point, variants, max_steps, vector_entry_point=VECTOR_ENTRY_POINT
+        )
     return ids

@@ -12,12 +12,17 @@ import numpy as np
 from kinder_core import Object
 from kinder_garden2d.geometry import BoolArray, FloatArray
 from kinder_garden2d.kinematic2d.base import Kinematic2DEnv
+from kinder_garden2d.kinematic2d.batched.kernels import lshape_pairs, obb_circle_pairs, py_hypot
 from kinder_garden2d.kinematic2d.batched.world import BatchedWorld
 from kinder_garden2d.kinematic2d.clutteredretrieval2d import ClutteredRetrieval2DEnv
 from kinder_garden2d.kinematic2d.clutteredstorage2d import ClutteredStorage2DEnv
+from kinder_garden2d.kinematic2d.crv import IntArray
 from kinder_garden2d.kinematic2d.motion2d import Motion2DEnv
+from kinder_garden2d.kinematic2d.object_types import BUTTON_GREEN
 from kinder_garden2d.kinematic2d.obstruction2d import Obstruction2DConfig, Obstruction2DEnv
 from kinder_garden2d.kinematic2d.predicates import EPS
+from kinder_garden2d.kinematic2d.pushpullhook2d import PushPullHook2DConfig, PushPullHook2DEnv
+from kinder_garden2d.kinematic2d.stickbutton2d import StickButton2DEnv
 
 _RECT = ("x", "y", "theta", "width", "height")
 _OPENING = ("x1", "y1", "theta1", "width1", "height1")
@@ -125,11 +130,185 @@ class ClutteredStorage2DWorld(_Rules):
         return out
 
 
+def press_touched(
+    data: FloatArray,
+    robot_idx: IntArray,
+    stick_idx: IntArray,
+    circle_idx: IntArray,
+    color_idx: IntArray,
+) -> None:
+    """Turn green (in place) every button that the robot's base, arm or gripper, its suction
+    zone while the vacuum is on, or the stick touches (``press_touched_buttons``): the same
+    bounding-circle prefilter and exact tests, for every sub-env and button at once."""
+    colors = data[:, color_idx]  # (N, K, 3)
+    unpressed = np.any(np.abs(colors - BUTTON_GREEN) > 1e-6, axis=2)
+    if not unpressed.any():
+        return
+    x, y, th, br, aj, _, vac, gh, gw = (v[:, None] for v in data[:, robot_idx].T)
+    c, s = np.cos(th), np.sin(th)
+    on = vac > 0.5
+    reach = np.where(on, aj + 2.0 * gw, aj + 0.5 * gw)
+    px, py, pth, pw, ph = (v[:, None] for v in data[:, stick_idx].T)
+    pc, ps = np.cos(pth), np.sin(pth)
+    scx = px + 0.5 * (pc * pw - ps * ph)
+    scy = py + 0.5 * (ps * pw + pc * ph)
+    boxes = [
+        (x + 0.5 * aj * c, y + 0.5 * aj * s, c, s, 0.5 * aj, 0.25 * gw),  # arm
+        (x + aj * c, y + aj * s, c, s, 0.5 * gw, 0.5 * gh),  # gripper
+        (scx, scy, pc, ps, 0.5 * pw, 0.5 * ph),  # stick
+    ]
+    suction = (x + (aj + 1.5 * gw) * c, y + (aj + 1.5 * gw) * s, c, s, 0.5 * gw, 0.5 * gh)
+    b = data[:, circle_idx]  # (N, K, 3)
+    bx, by, r = b[..., 0], b[..., 1], b[..., 2]
+    near = (py_hypot(bx - x, by - y) <= np.maximum(br, py_hypot(reach, 0.5 * gh)) + r) | (
+        py_hypot(bx - scx, by - scy) <= 0.5 * py_hypot(pw, ph) + r
+    )
+    touch = py_hypot(bx - x, by - y) <= br + r
+    for box in boxes:
+        touch |= _circle_touches_box(bx, by, r, box)
+    touch |= on & _circle_touches_box(bx, by, r, suction)
+    pressed = unpressed & near & touch
+    if pressed.any():
+        rows, k = np.nonzero(pressed)
+        data[rows[:, None], color_idx[k]] = BUTTON_GREEN
+
+
+def _circle_touches_box(
+    x: FloatArray, y: FloatArray, r: FloatArray, box: tuple[FloatArray, ...]
+) -> BoolArray:
+    cx, cy, c, s, hw, hh = box
+    dx, dy = x - cx, y - cy
+    ex = np.maximum(np.abs(dx * c + dy * s) - hw, 0.0)
+    ey = np.maximum(np.abs(dy * c - dx * s) - hh, 0.0)
+    out: BoolArray = ex * ex + ey * ey <= r * r
+    return out
+
+
+def all_green(data: FloatArray, color_idx: IntArray) -> BoolArray:
+    """``(N,)``: is every button (colour indices ``(K, 3)``) pressed (``all_pressed``)?"""
+    ok = np.abs(data[:, color_idx] - BUTTON_GREEN) <= 1e-6
+    out: BoolArray = np.logical_and.reduce(ok.reshape(len(data), -1), axis=1)
+    return out
+
+
+class StickButton2DWorld(_Rules):
+    """StickButton2D: buttons latch green when touched; the goal is all of them green, with
+    reward 0 on the step that reaches it."""
+
+    def __init__(self, env: Kinematic2DEnv) -> None:
+        super().__init__(env)
+        assert isinstance(env, StickButton2DEnv)
+        idx = env.layout.indices
+        self._stick = idx([env.stick], ["x", "y", "theta", "width", "height"])[0]
+        self._circles = idx(env.buttons, ["x", "y", "radius"])
+        self._colors = idx(env.buttons, ["color_r", "color_g", "color_b"])
+
+    def transition(self, data: FloatArray, action: FloatArray) -> FloatArray:
+        new = super().transition(data, action)
+        press_touched(new, self.robot_idx, self._stick, self._circles, self._colors)
+        return new
+
+    def goal(self, data: FloatArray) -> BoolArray:
+        return all_green(data, self._colors)
+
+    def reward(self, terminated: BoolArray) -> FloatArray:
+        out: FloatArray = np.where(terminated, 0.0, -1.0)
+        return out
+
+
+class PushPullHook2DWorld(_Rules):
+    """PushPullHook2D: a held hook pushes the movable button (a held button pushes the hook) by
+    the vector from the hook outline's closest point to the button's centre; both buttons turn
+    green when their centres are closer than the press distance."""
+
+    def __init__(self, env: Kinematic2DEnv) -> None:
+        super().__init__(env)
+        assert isinstance(env, PushPullHook2DEnv)
+        assert isinstance(env.config, PushPullHook2DConfig)
+        idx = env.layout.indices
+        self._hook_m = self.movable.index(env.hook)
+        self._button_m = self.movable.index(env.movable_button)
+        self._hook = idx([env.hook], ["x", "y", "theta", "width", "length_side1", "length_side2"])[
+            0
+        ]
+        self._button = idx([env.movable_button], ["x", "y", "radius"])[0]
+        self._target = idx([env.target_button], ["x", "y", "radius"])[0]
+        self._colors = idx(
+            [env.movable_button, env.target_button], ["color_r", "color_g", "color_b"]
+        )
+        self._press_distance = env.config.press_distance
+
+    def push(self, new: FloatArray, held: BoolArray) -> BoolArray:
+        pushed = np.zeros_like(held)
+        hook_held, button_held = held[:, self._hook_m], held[:, self._button_m]
+        rows = np.flatnonzero(hook_held != button_held)
+        if not rows.size:
+            return pushed
+        lx, ly, lth, lw, l1, l2 = new[rows][:, self._hook].T
+        circle = new[rows][:, self._button]
+        boxes = lshape_pairs(lx, ly, lth, lw, l1, l2)  # (R, 2, 6)
+        touch = obb_circle_pairs(boxes[:, 0], circle) | obb_circle_pairs(boxes[:, 1], circle)
+        rows, circle = rows[touch], circle[touch]
+        if not rows.size:
+            return pushed
+        lx, ly, lth, lw, l1, l2 = (v[touch] for v in (lx, ly, lth, lw, l1, l2))
+        px, py = lshape_closest_point(lx, ly, lth, lw, l1, l2, circle[:, 0], circle[:, 1])
+        dx, dy = circle[:, 0] - px, circle[:, 1] - py
+        by_hook = hook_held[rows]
+        target = np.where(by_hook[:, None], self._button[None, :2], self._hook[None, :2])
+        new[rows[:, None], target] += np.stack([dx, dy], -1)
+        pushed[rows, np.where(by_hook, self._button_m, self._hook_m)] = True
+        return pushed
+
+    def transition(self, data: FloatArray, action: FloatArray) -> FloatArray:
+        new = super().transition(data, action)
+        m, t = new[:, self._button], new[:, self._target]
+        close = py_hypot(m[:, 0] - t[:, 0], m[:, 1] - t[:, 1]) < self._press_distance
+        new[np.flatnonzero(close)[:, None], self._colors.reshape(-1)] = np.tile(BUTTON_GREEN, 2)
+        return new
+
+    def goal(self, data: FloatArray) -> BoolArray:
+        return all_green(data, self._colors)
+
+    def reward(self, terminated: BoolArray) -> FloatArray:
+        out: FloatArray = np.where(terminated, 0.0, -1.0)
+        return out
+
+
+def lshape_closest_point(
+    x: FloatArray,
+    y: FloatArray,
+    theta: FloatArray,
+    width: FloatArray,
+    side1: FloatArray,
+    side2: FloatArray,
+    px: FloatArray,
+    py: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """The point of each L-shape's outline closest to ``(px, py)``
+    (``lshape_closest_boundary_point`` for every row; ties go to the first edge)."""
+    zero = np.zeros_like(x)
+    lxs = np.stack([zero, -side1, -side1, -width, -width, zero], -1)
+    lys = np.stack([zero, zero, -width, -width, -side2, -side2], -1)
+    c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
+    vx = (lxs * c - lys * s) + x[:, None]
+    vy = (lxs * s + lys * c) + y[:, None]
+    x2, y2 = np.roll(vx, -1, axis=1), np.roll(vy, -1, axis=1)
+    dx, dy = x2 - vx, y2 - vy
+    pxc, pyc = px[:, None], py[:, None]
+    t = np.clip(((pxc - vx) * dx + (pyc - vy) * dy) / (dx * dx + dy * dy), 0.0, 1.0)
+    cx, cy = vx + t * dx, vy + t * dy
+    k = np.argmin(np.hypot(cx - pxc, cy - pyc), axis=1)[:, None]
+    return np.take_along_axis(cx, k, 1)[:, 0], np.take_along_axis(cy, k, 1)[:, 0]
+
+
 _WORLDS: dict[type[Kinematic2DEnv], type[_Rules]] = {
     Motion2DEnv: Motion2DWorld,
     Obstruction2DEnv: Obstruction2DWorld,
     ClutteredRetrieval2DEnv: ClutteredRetrieval2DWorld,
     ClutteredStorage2DEnv: ClutteredStorage2DWorld,
+    StickButton2DEnv: StickButton2DWorld,
+    PushPullHook2DEnv: PushPullHook2DWorld,
 }
 
 

@@ -82,6 +82,10 @@ class BatchedWorld:
                 f"{type(env).__name__}: movable double rectangles {doubles} are not supported by "
                 f"the batched world; expected them static"
             )
+        if world.push is not None and type(self).push is BatchedWorld.push:
+            raise ValueError(
+                f"{type(env).__name__} pushes objects; its batched world must override push()"
+            )
         rects = [o for o in movable if o.type.is_subtype_of(RECTANGLE)]
         lobjs = [o for o in movable if o.type.is_subtype_of(LOBJECT)]
         circles = [o for o in movable if o.type.is_subtype_of(CIRCLE)]
