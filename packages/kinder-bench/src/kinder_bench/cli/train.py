@@ -294,7 +294,13 @@ RLOutOpt = Annotated[
 NEnvsOpt = Annotated[
     int | None, typer.Option(help="Vector envs (default: the paper's, 8 or 16 per env).")
 ]
-VecOpt = Annotated[str, typer.Option(help="'dummy' (in process) or 'subproc' (one process each).")]
+VecOpt = Annotated[
+    str,
+    typer.Option(
+        help="'dummy' (in process), 'subproc' (one process each) or 'batched' (Kinematic2D: "
+        "all envs in whole numpy arrays, same results as 'dummy')."
+    ),
+]
 RewardOpt = Annotated[
     str, typer.Option(help="'sparse' (the env's) or 'dense' (BaseMotion3D's shaping).")
 ]

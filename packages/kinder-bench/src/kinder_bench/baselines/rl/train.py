@@ -75,7 +75,7 @@ from kinder_bench.results import environment_info, write_json
 from kinder_bench.training.csvlog import CsvLog
 
 Algo = Literal["ppo", "sac"]
-VEC_ENVS = ("dummy", "subproc")
+VEC_ENVS = ("dummy", "subproc", "batched")
 
 #: Vector envs of the released configs that differ from 8 (by algorithm, then env family).
 PAPER_N_ENVS: dict[str, dict[str, int]] = {
@@ -98,7 +98,9 @@ class RLArgs:
     """Vector envs; None: the released configs' (8; 16 for BaseMotion3D, Transport3D, and
     Shelf3D with PPO)."""
     vec_env: str = "dummy"
-    """``dummy`` (envs stepped in this process) or ``subproc`` (one process per env)."""
+    """``dummy`` (envs stepped in this process), ``subproc`` (one process per env) or
+    ``batched`` (Kinematic2D ids only: all envs stepped in whole numpy arrays, bit-exact with
+    ``dummy``; see :mod:`~kinder_bench.baselines.rl.batched`)."""
     reward: str = "sparse"
     """``sparse`` (the env's −1 per step) or ``dense`` (the paper's BaseMotion3D shaping)."""
     dense_scale: float = 0.1
@@ -313,6 +315,12 @@ def make_venv(algo: str, args: RLArgs, res: Resolved) -> VecEnv:
     fn: Callable[[], Any] = functools.partial(
         make_rl_env, res.env_id, res.max_episode_steps, args.reward, args.dense_scale
     )
+    if args.vec_env == "batched":
+        if args.reward != "sparse":
+            raise ValueError("--vec-env batched trains on the env's own (sparse) reward only")
+        from kinder_bench.baselines.rl.batched import BatchedVecEnv
+
+        return BatchedVecEnv(res.env_id, res.n_envs, res.max_episode_steps)
     fns = [fn] * res.n_envs
     venv: VecEnv = SubprocVecEnv(fns) if args.vec_env == "subproc" else DummyVecEnv(fns)
     return venv

@@ -223,6 +223,21 @@ class Kinematic2DVectorEnv(VectorEnv[NDArray[Any], NDArray[Any], NDArray[Any]]):
         info = {"success": success, "_success": np.ones(self.num_envs, dtype=bool)}
         return self._obs(), rewards, terminated, truncated, info
 
+    def reset_ended(self) -> tuple[NDArray[Any], BoolArray, BoolArray]:
+        """Reset now every sub-env that ended on the last step, instead of on the next one:
+        Stable-Baselines3's autoreset (``AutoresetMode.SAME_STEP``). Returns the observations
+        (the new first ones for the reset sub-envs), which sub-envs were reset, and their goal
+        test (``info["success"]`` of their reset)."""
+        rows = np.flatnonzero(self._autoreset)
+        if rows.size:
+            self._reset_rows(rows)
+            self._autoreset[rows] = False
+        success = np.zeros(self.num_envs, dtype=bool)
+        success[rows] = self.world.goal(self.data[rows])
+        reset = np.zeros(self.num_envs, dtype=bool)
+        reset[rows] = True
+        return self._obs(), reset, success
+
     # -- states and rendering -------------------------------------------------------------------
     def get_state(self, index: int) -> ObjectCentricState:
         """A copy of sub-env ``index``'s live state."""
