@@ -415,6 +415,17 @@ def test_bench_run_label_names_a_variant(toy_id: str, tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     (row,) = csv.DictReader(io.StringIO((out_dir / "summary.csv").read_text()))
     assert (row["method"], row["agent"]) == ("random-variant", "random")
+    # The training budget given to the run is recorded in the summary rows and config.json.
+    trained = tmp_path / "trained"
+    result = CliRunner().invoke(
+        app, [*base, "--agent", "random", "--training", "1M env steps", "--out", str(trained)]
+    )
+    assert result.exit_code == 0, result.output
+    (row,) = csv.DictReader(io.StringIO((trained / "summary.csv").read_text()))
+    assert row["training"] == "1M env steps" and row["provenance"] == ""
+    (run,) = json.loads((trained / "config.json").read_text())["runs"]
+    assert run["training"] == "1M env steps"
+    assert results_from_csv(trained / "summary.csv")[0].training == "1M env steps"
     two_agents = ["--agent", "random", "--agent", "mpc", "--label", "x"]
     blank_label = ["--agent", "random", "--label", " "]
     for bad in (two_agents, blank_label):

@@ -188,11 +188,14 @@ class Result:
 
 
 def results_from_summaries(
-    summaries: Iterable[Summary], commands: Mapping[str, str] | None = None
+    summaries: Iterable[Summary],
+    commands: Mapping[str, str] | None = None,
+    trainings: Mapping[str, str] | None = None,
 ) -> list[Result]:
     """Results from :func:`~kinder_bench.metrics.aggregate`'s summaries (``commands``: run id →
-    the command that ran it)."""
+    the command that ran it; ``trainings``: run id → its training budget)."""
     commands = commands or {}
+    trainings = trainings or {}
     return [
         Result(
             env_id=s.env_id,
@@ -209,6 +212,7 @@ def results_from_summaries(
             seeds=tuple(m.seed for m in s.per_seed),
             max_steps=s.max_steps,
             agent_args=dict(s.agent_args),
+            training=trainings.get(s.run_id, ""),
         )
         for s in summaries
     ]

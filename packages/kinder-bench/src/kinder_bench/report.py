@@ -130,11 +130,26 @@ def run_commands(run_dirs: Sequence[Path | str]) -> dict[str, str]:
     return out
 
 
-def csv_table(summaries: Sequence[Summary], commands: Mapping[str, str] | None = None) -> str:
+def run_trainings(run_dirs: Sequence[Path | str]) -> dict[str, str]:
+    """Run id → the training budget recorded for it in the run directories' ``config.json``."""
+    out: dict[str, str] = {}
+    for d in run_dirs:
+        for run in load_config(d).get("runs", []):
+            if run.get("training"):
+                out[run["run_id"]] = run["training"]
+    return out
+
+
+def csv_table(
+    summaries: Sequence[Summary],
+    commands: Mapping[str, str] | None = None,
+    trainings: Mapping[str, str] | None = None,
+) -> str:
     """One row per env × method (empty cells where a value is undefined); ``command``: the
-    command recorded for the run (``commands``: run id → command); ``training`` and
-    ``provenance`` are left empty."""
+    command recorded for the run (``commands``: run id → command); ``training``: its training
+    budget (``trainings``: run id → budget); ``provenance`` is left empty (a runner row)."""
     commands = commands or {}
+    trainings = trainings or {}
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
@@ -167,7 +182,7 @@ def csv_table(summaries: Sequence[Summary], commands: Mapping[str, str] | None =
                 commands.get(s.run_id, ""),
                 " ".join(str(m.seed) for m in s.per_seed),
                 json.dumps(s.agent_args, sort_keys=True, default=str),
-                "",
+                trainings.get(s.run_id, ""),
                 "",
             ]
         )
@@ -235,17 +250,18 @@ def write_report(
     out = Path(out_dir if out_dir is not None else run_dirs[0])
     out.mkdir(parents=True, exist_ok=True)
     commands = run_commands(run_dirs)
+    trainings = run_trainings(run_dirs)
     md = markdown_table(summaries)
     paths = {"table": out / TABLE_FILE, "csv": out / CSV_FILE}
     write_text(paths["table"], md)
-    write_text(paths["csv"], csv_table(summaries, commands))
+    write_text(paths["csv"], csv_table(summaries, commands, trainings))
     if plot:
         paths["plot"] = plot_success(summaries, out / PLOT_FILE)
     comparison = None
     if paper or html:
         from kinder_bench.paper import compare, paper_csv, paper_markdown, results_from_summaries
 
-        results = results_from_summaries(summaries, commands)
+        results = results_from_summaries(summaries, commands, trainings)
         if paper:
             comparison = compare(results)
             md = paper_markdown(comparison)

@@ -40,7 +40,7 @@ from kinder_bench.executors import execute
 from kinder_bench.metrics import aggregate
 from kinder_bench.protocol import PAPER_EPISODES, PAPER_MAX_STEPS, PAPER_SEEDS
 from kinder_bench.recording import VIDEO_FORMATS, write_video
-from kinder_bench.report import CSV_FILE, csv_table, dedupe, run_commands
+from kinder_bench.report import CSV_FILE, csv_table, dedupe, run_commands, run_trainings
 from kinder_bench.results import (
     CONFIG_FILE,
     RESULTS_FILE,
@@ -77,6 +77,10 @@ class RunConfig:
     (:data:`~kinder_bench.protocol.PAPER_MAX_STEPS`), else the env's ``max_episode_steps``."""
     label: str | None = None
     """The method's name in reports; None: the agent name."""
+    training: str = ""
+    """The training budget of a learned agent's checkpoints, in words (``1M env steps``),
+    recorded in ``config.json`` and the summary rows (a learned agent fills a paper cell only
+    with the paper's budget; :mod:`kinder_bench.paper`); empty: not recorded."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -149,6 +153,7 @@ class ResolvedRun:
     seeds: tuple[int, ...]
     episodes: int
     max_steps: int
+    training: str = ""
 
 
 def resolve_run(config: RunConfig) -> ResolvedRun:
@@ -172,6 +177,7 @@ def resolve_run(config: RunConfig) -> ResolvedRun:
         seeds=tuple(int(s) for s in config.seeds),
         episodes=int(config.episodes),
         max_steps=int(max_steps),
+        training=config.training.strip(),
     )
 
 
@@ -441,7 +447,8 @@ def write_summary(run_dir: Path | str) -> Path | None:
     records = dedupe(load_records(run_dir / RESULTS_FILE))
     if not records:
         return None
-    return write_text(run_dir / CSV_FILE, csv_table(aggregate(records), run_commands([run_dir])))
+    text = csv_table(aggregate(records), run_commands([run_dir]), run_trainings([run_dir]))
+    return write_text(run_dir / CSV_FILE, text)
 
 
 def _write_config(

@@ -82,9 +82,17 @@ def bench_run(
         typer.Option(
             help="The method's name in the tables (default: the agent's; one agent only). A "
             "name other than the agent's marks a variant (e.g. ppo-dense): it gets its own "
-            "column beside the paper's."
+            "row, never the paper's column."
         ),
     ] = None,
+    training: Annotated[
+        str,
+        typer.Option(
+            help="The training budget of the agent's checkpoints, in words (e.g. '1M env "
+            "steps'), recorded in the summary rows: a learned agent fills a paper cell only "
+            "with the paper's (kinder_bench/data/paper_settings.csv)."
+        ),
+    ] = "",
     imports: ImportOpt = None,
 ) -> None:
     """Run every agent on every env over the seeds (resuming what the run directory has).
@@ -103,7 +111,7 @@ def bench_run(
     pairs = _runnable(envs_, agent or ["random"], args)
     seed_list = parse_seeds(seeds)
     runs = [
-        RunConfig(e, a, a_args, seed_list, episodes, max_steps, label=label)
+        RunConfig(e, a, a_args, seed_list, episodes, max_steps, label=label, training=training)
         for e, a, a_args in pairs
     ]
     with user_errors():
