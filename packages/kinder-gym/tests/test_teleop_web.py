@@ -16,7 +16,7 @@ from fastapi.testclient import TestClient
 from kinder_gym.demos.record import EpisodeRecord
 from kinder_gym.teleop.loop import FakeClock
 from kinder_gym.teleop.web.hub import WebHub
-from kinder_gym.teleop.web.protocol import ProtocolError, parse_message
+from kinder_gym.teleop.web.protocol import VERSION, ProtocolError, parse_message
 from kinder_gym.teleop.web.server import WebTeleop
 
 ENV_ID = "kinder/BaseMotion3D-v0"
@@ -26,7 +26,7 @@ def msg(
     seq: int, sent: float | None = None, engaged: tuple[str, ...] = ("base",), **extra: Any
 ) -> str:
     data: dict[str, Any] = {
-        "v": 1,
+        "v": VERSION,
         "type": "input",
         "seq": seq,
         "device": "script",
@@ -58,7 +58,11 @@ def reply(ws: Any, kind: str | None = None) -> dict[str, Any]:
 @pytest.fixture(scope="module")
 def teleop():  # type: ignore[no-untyped-def]
     saved: list[EpisodeRecord] = []
-    t = WebTeleop(ENV_ID, seed=0, save=saved.append, clock=FakeClock(), frame_every=1)
+    # claim_after=1: each message takes effect at once (the claim rule is tested in
+    # test_teleop_phone_ar.py).
+    t = WebTeleop(
+        ENV_ID, seed=0, save=saved.append, clock=FakeClock(), frame_every=1, claim_after=1
+    )
     t.saved_records = saved  # type: ignore[attr-defined]
     yield t
     t.close()
@@ -72,17 +76,17 @@ def test_parse_errors_name_the_problem() -> None:
     with pytest.raises(ProtocolError, match="not valid JSON"):
         parse_message("{oops")
     with pytest.raises(ProtocolError, match="version"):
-        parse_message('{"v": 2, "type": "input", "seq": 0}')
+        parse_message('{"v": 1, "type": "input", "seq": 0}')  # version 1 is gone
     with pytest.raises(ProtocolError, match="seq"):
-        parse_message('{"v": 1, "type": "input", "seq": -1}')
+        parse_message('{"v": 2, "type": "input", "seq": -1}')
     with pytest.raises(ProtocolError, match="unit quaternion"):
-        parse_message('{"v":1,"type":"input","seq":0,"poses":{"arm":{"p":[0,0,0],"q":[0,0,0,2]}}}')
+        parse_message('{"v":2,"type":"input","seq":0,"poses":{"arm":{"p":[0,0,0],"q":[0,0,0,2]}}}')
     with pytest.raises(ProtocolError, match="engaged"):
-        parse_message('{"v":1,"type":"input","seq":0,"engaged":["leg"]}')
+        parse_message('{"v":2,"type":"input","seq":0,"engaged":["leg"]}')
     with pytest.raises(ProtocolError, match="gripper"):
-        parse_message('{"v":1,"type":"input","seq":0,"gripper":1.5}')
+        parse_message('{"v":2,"type":"input","seq":0,"gripper":1.5}')
     with pytest.raises(ProtocolError, match="unknown event"):
-        parse_message('{"v":1,"type":"event","name":"explode"}')
+        parse_message('{"v":2,"type":"event","name":"explode"}')
     ok = parse_message(msg(3, 10.0))
     assert ok.seq == 3 and ok.engaged == {"base"}  # type: ignore[union-attr]
 
@@ -124,10 +128,10 @@ def test_clutch_deadman_stale_and_malformed(teleop: WebTeleop) -> None:
         # Malformed JSON: an error reply, and nothing changes.
         steps = teleop.loop.status.step
         assert reply_to(ws, "{not json")["type"] == "error"
-        assert reply_to(ws, '{"v": 1, "type": "input", "seq": "x"}')["type"] == "error"
+        assert reply_to(ws, '{"v": 2, "type": "input", "seq": "x"}')["type"] == "error"
         # Out of order and stale messages are dropped.
         assert reply_to(ws, msg(1, 1002.0, z=-1.0)) == {
-            "v": 1,
+            "v": VERSION,
             "type": "dropped",
             "seq": 1,
             "reason": "out_of_order",
@@ -152,7 +156,7 @@ def test_clutch_deadman_stale_and_malformed(teleop: WebTeleop) -> None:
         teleop.loop.tick()
         assert teleop.loop.status.paused
         # Episode events from the page.
-        ws.send_text('{"v": 1, "type": "event", "name": "save"}')
+        ws.send_text('{"v": 2, "type": "event", "name": "save"}')
         assert reply(ws)["type"] == "event_ack"
         teleop.loop.tick()
         saved: list[EpisodeRecord] = teleop.saved_records  # type: ignore[attr-defined]
@@ -168,14 +172,28 @@ def reply_to(ws: Any, text: str) -> dict[str, Any]:
     return reply(ws)
 
 
-def test_one_client_in_control() -> None:
-    hub = WebHub(clock=lambda: 0.0)
+def test_one_client_per_channel_after_consecutive_messages() -> None:
+    hub = WebHub(clock=lambda: 0.0)  # claim_after = 3
     a, b = hub.connect(), hub.connect()
-    assert hub.handle_text(a, msg(0))["type"] == "ack"
-    assert hub.handle_text(b, msg(0))["reason"] == "not_in_control"
+    # a's first two engaged messages only count towards the claim.
+    assert hub.handle_text(a, msg(0)) == {"v": VERSION, "type": "ack", "seq": 0, "control": []}
+    assert hub.handle_text(a, msg(1))["control"] == []
+    assert not hub.poll(0.0).enabled
+    assert hub.handle_text(a, msg(2))["control"] == ["base"]
+    assert hub.poll(0.0).engaged == {"base"}
+    # b asks for the base a holds: dropped, three times over; b only watches.
+    for seq in range(3):
+        assert hub.handle_text(b, msg(seq))["reason"] == "not_in_control"
+    watched = json.dumps({"v": VERSION, "type": "input", "seq": 5, "engaged": []})
+    assert hub.handle_text(b, watched)["control"] == []
+    event = '{"v": 2, "type": "event", "name": "save"}'
+    assert hub.handle_text(b, event)["reason"] == "not_in_control"  # a watcher's event
+    assert hub.handle_text(a, event)["type"] == "event_ack"
     hub.disconnect(a)
     assert not hub.poll(0.0).enabled  # the controller left: released
-    assert hub.handle_text(b, msg(0))["type"] == "ack"
+    for seq in range(6, 9):
+        reply_b = hub.handle_text(b, msg(seq))
+    assert reply_b["control"] == ["base"]
     state = hub.poll(0.0)
     assert state.enabled and state.received == 0.0
     assert hub.poll(0.0).received is None  # latency counted once per message

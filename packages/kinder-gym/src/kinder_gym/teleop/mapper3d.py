@@ -30,7 +30,11 @@ Two kinds of input drive the targets:
   times ``scale``), converted by :func:`webxr_to_robot` (WebXR forward −z → robot +x, left −x →
   +y, up +y → +z) and taken relative to the robot's heading at the grab. Releasing a channel
   sets its target to the measured pose (the robot holds still); a new grab starts from there, so
-  re-grasping never jumps. With no channel engaged the deadman is released: the loop pauses.
+  re-grasping never jumps. A grab that was interrupted (the channel released, its samples went
+  stale, or a new episode started) is never resumed: the device must grab again. As in
+  TidyBot++, the hand's target is held in the **world** while the base moves during an arm grab
+  (another device driving the base): the device's motion moves the hand in the world frame the
+  base had at the grab. With no channel engaged the deadman is released: the loop pauses.
 * **Velocities** (keyboard and gamepad fallback, :data:`BINDINGS_3D`): the base moves in its own
   frame, the end effector in the base frame; the end-effector target may lead the measured hand
   by at most ``Limits.ee_lead`` so it never runs away when blocked.
@@ -157,6 +161,8 @@ def ee_pose_in_base(arm: FloatArray) -> tuple[FloatArray, FloatArray]:
 class _Clutch:
     grab: int
     robot: tuple[FloatArray, FloatArray]
+    base: FloatArray
+    """The base target (x, y, yaw) at the grab: the frame the device's motion is taken in."""
 
 
 class TidyBotTeleop:
@@ -208,6 +214,9 @@ class TidyBotTeleop:
         self.base_target = base
         self.ee_p, self.ee_q = ee_pose_in_base(arm)
         self.gripper = 0.0
+        # Grabs seen before this reset are over: a device still holding one must grab again.
+        self._ended = dict(getattr(self, "_last_grab", {}))
+        self._last_grab: dict[str, int] = dict(self._ended)
         self._clutch: dict[str, _Clutch] = {}
         self._ik_target: tuple[FloatArray, FloatArray] | None = None
         self._ik_goal = arm
@@ -253,12 +262,15 @@ class TidyBotTeleop:
         lim = self.limits
         for channel in ("base", "arm"):
             engaged = channel in s.engaged and channel in s.poses
+            if engaged and s.poses[channel].grab == self._ended.get(channel):
+                engaged = False  # an interrupted grab: wait for a new one
             if not engaged:
                 if channel in self._clutch:
-                    del self._clutch[channel]
+                    self._ended[channel] = self._clutch.pop(channel).grab
                     self._hold(base, arm, (channel,))
                 continue
             pose = s.poses[channel]
+            self._last_grab[channel] = pose.grab
             dp, dq = webxr_to_robot(pose)
             dp = dp * self.scale
             ref = self._clutch.get(channel)
@@ -270,7 +282,7 @@ class TidyBotTeleop:
                     if channel == "base"
                     else (self.ee_p.copy(), self.ee_q.copy())
                 )
-                ref = self._clutch[channel] = _Clutch(pose.grab, robot_ref)
+                ref = self._clutch[channel] = _Clutch(pose.grab, robot_ref, self.base_target.copy())
             if channel == "base":
                 yaw0 = float(ref.robot[0][2])
                 c, s_ = math.cos(yaw0), math.sin(yaw0)
@@ -284,9 +296,30 @@ class TidyBotTeleop:
                 yaw = float(self.base_target[2]) + max(-max_yaw, min(max_yaw, dyaw))
                 self.base_target = np.array([xy[0], xy[1], _wrap(yaw)])
             else:
-                goal_p = np.clip(ref.robot[0] + dp, lim.workspace_low, lim.workspace_high)
-                goal_q = quat_multiply(dq, ref.robot[1])
+                goal_p, goal_q = self._in_base_now(
+                    ref.base, ref.robot[0] + dp, quat_multiply(dq, ref.robot[1])
+                )
+                goal_p = np.clip(goal_p, lim.workspace_low, lim.workspace_high)
                 self._move_ee(goal_p, goal_q / np.linalg.norm(goal_q))
+
+    def _in_base_now(
+        self, base_ref: FloatArray, p: FloatArray, q: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """A pose given in the frame of base pose ``base_ref`` (x, y, yaw), in the frame of the
+        current base target (the same pose in the world)."""
+        now = self.base_target
+        dyaw = float(base_ref[2] - now[2])
+        c, s_ = math.cos(dyaw), math.sin(dyaw)
+        shift = base_ref[:2] - now[:2]
+        cy, sy = math.cos(float(now[2])), math.sin(float(now[2]))
+        p_now = np.array(
+            [
+                c * p[0] - s_ * p[1] + cy * shift[0] + sy * shift[1],
+                s_ * p[0] + c * p[1] - sy * shift[0] + cy * shift[1],
+                p[2],
+            ]
+        )
+        return p_now, quat_multiply(yaw_quat(dyaw), q)
 
     def _move_ee(self, goal_p: FloatArray, goal_q: FloatArray) -> None:
         lim = self.limits

@@ -14,6 +14,8 @@ from __future__ import annotations
 import contextlib
 import io
 import multiprocessing
+import signal
+import sys
 from multiprocessing.connection import Connection
 from typing import Any
 
@@ -60,21 +62,29 @@ def jpeg_views(env: gymnasium.Env[Any, Any], state: Any = None) -> dict[str, byt
 
 
 def _worker(env_id: str, size: tuple[int, int], conn: Connection) -> None:
+    # Ctrl+C reaches the whole process group: the parent decides when to stop (it sends None);
+    # SIGTERM or a parent that is gone end the worker quietly instead of with a traceback.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(0))
     import kinder_core
 
     env = kinder_core.make(env_id, render_mode="rgb_array")
     set_image_size(env, *size)
     seed = None
-    while True:
-        job = conn.recv()
-        if job is None:
-            break
-        job_seed, state = job
-        if job_seed != seed:  # scenes may depend on the episode's seed
-            env.reset(seed=job_seed)
-            seed = job_seed
-        conn.send(jpeg_views(env, state))
-    env.close()
+    try:
+        while True:
+            job = conn.recv()
+            if job is None:
+                break
+            job_seed, state = job
+            if job_seed != seed:  # scenes may depend on the episode's seed
+                env.reset(seed=job_seed)
+                seed = job_seed
+            conn.send(jpeg_views(env, state))
+    except (EOFError, OSError):  # the parent is gone (BrokenPipeError is an OSError)
+        pass
+    finally:
+        env.close()
 
 
 class FrameWorker:
@@ -86,22 +96,35 @@ class FrameWorker:
         self._proc = ctx.Process(target=_worker, args=(env_id, size, child), daemon=True)
         self._proc.start()
         self._busy = False
+        self.ended = False
+        """Whether the worker process has gone (killed, crashed): no more frames."""
 
     def submit(self, seed: int, state: Any) -> bool:
-        """Hand over a state to render if the worker is idle; returns whether it took it."""
-        if self._busy:
+        """Hand over a state to render if the worker is idle; returns whether it took it (never
+        once the worker has ended: control goes on without frames)."""
+        if self._busy or self.ended:
             return False
-        self._conn.send((seed, state))
+        try:
+            self._conn.send((seed, state))
+        except OSError:
+            self.ended = True
+            return False
         self._busy = True
         return True
 
     def poll(self) -> dict[str, bytes] | None:
         """The finished frames, if any (never blocks)."""
-        if self._busy and self._conn.poll():
-            self._busy = False
+        if not self._busy or self.ended:
+            return None
+        try:
+            if not self._conn.poll():
+                return None
             frames: dict[str, bytes] = self._conn.recv()
-            return frames
-        return None
+        except (EOFError, OSError):
+            self.ended = True
+            return None
+        self._busy = False
+        return frames
 
     def close(self) -> None:
         with contextlib.suppress(BrokenPipeError, OSError):

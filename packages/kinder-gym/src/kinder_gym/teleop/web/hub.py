@@ -2,19 +2,38 @@
 
 :class:`WebHub` is the web app's *device*: connections hand it message text
 (:meth:`WebHub.handle_text`), the loop polls it (:meth:`WebHub.poll`) for one
-:class:`~kinder_gym.teleop.inputs.InputState` per tick. It keeps only the newest input sample
-(the page sends at display rate; the loop runs at its own fixed rate).
+:class:`~kinder_gym.teleop.inputs.InputState` per tick. Per channel it keeps only the newest
+sample (pages send at display rate; the loop runs at its own fixed rate).
+
+Control, per clutch channel (``"arm"``, which carries the gripper, and ``"base"``), in
+TidyBot++'s manner:
+
+* a connection takes a free channel only after ``claim_after`` consecutive messages engaging it
+  (pose updates of a phone lag its touch events, so the first messages of a grab are not used);
+  it holds the channel while it keeps it engaged, and a release, a disconnect or a stale sample
+  frees it. So one phone may drive the arm while a second drives the base, each with its own
+  clutch; a connection that asks for a channel another one holds gets ``dropped`` with reason
+  ``not_in_control``, and every other client only watches. Episode events are taken from a
+  connection that holds a channel, or from anyone while nobody does;
+* grab numbers are the hub's own (one per channel grab of one connection), so a channel passing
+  from one device to another always re-captures the robot's reference;
+* an AR phone's raw viewer pose becomes the channel's motion since the grab here
+  (:class:`~kinder_gym.teleop.web.viewer.ViewerClutch`: the first message that has control
+  captures the reference; a release, a mode switch or a loss of control ends the grab, and
+  taking the channel again captures a new reference). Devices that number their own grabs (touch
+  pads, headset grips) must grab again after a loss of control (the mapper never resumes an
+  interrupted grab).
 
 Safety rules, all judged on the **server's** clock:
 
 * a sample older than ``max_age`` when the loop polls counts as released (deadman): the robot
-  holds still until fresh input arrives;
+  holds still until fresh input arrives (and, as after any interruption, a new grab);
 * a message whose transit took ``max_age`` longer than the fastest message of its connection is
   dropped as stale (the client's clock is only compared with itself: its offset to the server's
   clock is estimated from the fastest message, so unsynchronised clocks do not matter);
 * messages whose ``seq`` is not larger than the last accepted one are dropped (out of order);
-* one connection is in control at a time (the first to send input); others get ``dropped``
-  with reason ``not_in_control`` until it disconnects. A disconnect releases everything.
+* messages larger than :data:`~kinder_gym.teleop.web.protocol.MAX_MESSAGE_BYTES` and malformed
+  ones get an error reply and change nothing.
 """
 
 from __future__ import annotations
@@ -26,20 +45,50 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from kinder_gym.teleop.inputs import InputState
+from kinder_gym.teleop.inputs import InputState, Pose
 from kinder_gym.teleop.web.protocol import (
+    POSE_CHANNELS,
     VERSION,
     EventMessage,
     InputMessage,
     ProtocolError,
     parse_message,
 )
+from kinder_gym.teleop.web.viewer import DEFAULT_CENTRE_OFFSET, Vec3, ViewerClutch
+
+#: Consecutive engaged messages before a connection takes a free channel (TidyBot++: "> 2").
+CLAIM_AFTER = 3
+#: The engaged names that belong to each controlled channel.
+CHANNEL_NAMES = {"arm": frozenset({"arm", "gripper"}), "base": frozenset({"base"})}
 
 
 @dataclasses.dataclass
 class _Connection:
+    offset: Vec3
     last_seq: int = -1
     min_offset_ms: float | None = None
+    streak: dict[str, int] = dataclasses.field(
+        default_factory=lambda: dict.fromkeys(POSE_CHANNELS, 0)
+    )
+    viewer: dict[str, ViewerClutch] = dataclasses.field(default_factory=dict)
+
+    def clutch(self, channel: str) -> ViewerClutch:
+        if channel not in self.viewer:
+            self.viewer[channel] = ViewerClutch(self.offset)
+        return self.viewer[channel]
+
+
+@dataclasses.dataclass
+class _Held:
+    """The newest sample of one channel from the connection that controls it."""
+
+    cid: int
+    names: frozenset[str]
+    """The channel's engaged names in that sample (empty: released)."""
+    pose: Pose | None
+    gripper: float | None
+    time: float
+    fresh: bool = True
 
 
 class WebHub:
@@ -48,18 +97,29 @@ class WebHub:
     Args:
         max_age: Seconds after which a sample (or a message's extra transit) is stale.
         clock: The loop's clock (``time.perf_counter`` by default; tests inject a fake one).
+        claim_after: Consecutive engaged messages before a connection takes a free channel.
+        centre_offset: The AR phone's centre seen from its camera (camera axes, metres).
     """
 
-    def __init__(self, max_age: float = 0.25, clock: Callable[[], float] | None = None) -> None:
+    def __init__(
+        self,
+        max_age: float = 0.25,
+        clock: Callable[[], float] | None = None,
+        claim_after: int = CLAIM_AFTER,
+        centre_offset: Vec3 = DEFAULT_CENTRE_OFFSET,
+    ) -> None:
+        if claim_after < 1:
+            raise ValueError(f"claim_after must be at least 1, got {claim_after}")
         self.max_age = float(max_age)
         self.clock = clock or time.perf_counter
+        self.claim_after = int(claim_after)
+        self.centre_offset = centre_offset
         self._lock = threading.Lock()
         self._ids = itertools.count(1)
+        self._grab_ids = itertools.count(1)
         self._connections: dict[int, _Connection] = {}
-        self._controller: int | None = None
-        self._sample: InputMessage | None = None
-        self._sample_time = 0.0
-        self._sample_fresh = False
+        self._held: dict[str, _Held] = {}
+        self._grabs: dict[str, tuple[tuple[int, int], int]] = {}
         self._events: set[str] = set()
         self._status: dict[str, Any] = {}
         self._frames: dict[str, bytes] = {}
@@ -71,15 +131,34 @@ class WebHub:
     def connect(self) -> int:
         with self._lock:
             cid = next(self._ids)
-            self._connections[cid] = _Connection()
+            self._connections[cid] = _Connection(self.centre_offset)
             return cid
 
     def disconnect(self, cid: int) -> None:
         with self._lock:
             self._connections.pop(cid, None)
-            if self._controller == cid:
-                self._controller = None
-                self._sample = None
+            for channel in [c for c, held in self._held.items() if held.cid == cid]:
+                del self._held[channel]
+
+    def _owner(self, channel: str, now: float) -> int | None:
+        held = self._held.get(channel)
+        if held is None or not held.names or now - held.time > self.max_age:
+            return None
+        return held.cid
+
+    def controls(self, cid: int) -> list[str]:
+        """The channels connection ``cid`` controls now."""
+        with self._lock:
+            now = self.clock()
+            return [c for c in POSE_CHANNELS if self._owner(c, now) == cid]
+
+    def _grab(self, channel: str, cid: int, client_grab: int) -> int:
+        """The hub's grab number for grab ``client_grab`` of connection ``cid``."""
+        key = (cid, client_grab)
+        known = self._grabs.get(channel)
+        if known is None or known[0] != key:
+            known = self._grabs[channel] = (key, next(self._grab_ids))
+        return known[1]
 
     def handle_text(self, cid: int, text: str | bytes) -> dict[str, Any]:
         """Handle one message of connection ``cid``; returns the reply to send."""
@@ -93,12 +172,18 @@ class WebHub:
             if conn is None:
                 return {"v": VERSION, "type": "error", "message": "unknown connection"}
             if isinstance(message, EventMessage):
+                owners = {self._owner(c, now) for c in POSE_CHANNELS} - {None}
+                if owners and cid not in owners:
+                    self.dropped += 1
+                    return {
+                        "v": VERSION,
+                        "type": "dropped",
+                        "name": message.name,
+                        "reason": "not_in_control",
+                    }
                 self._events.add(message.name)
                 return {"v": VERSION, "type": "event_ack", "name": message.name}
             seq = message.seq
-            if self._controller not in (None, cid):
-                self.dropped += 1
-                return {"v": VERSION, "type": "dropped", "seq": seq, "reason": "not_in_control"}
             if seq <= conn.last_seq:
                 self.dropped += 1
                 return {"v": VERSION, "type": "dropped", "seq": seq, "reason": "out_of_order"}
@@ -110,32 +195,76 @@ class WebHub:
                     self.dropped += 1
                     return {"v": VERSION, "type": "dropped", "seq": seq, "reason": "stale"}
             conn.last_seq = seq
-            self._controller = cid
-            self._sample = message
-            self._sample_time = now
-            self._sample_fresh = True
+            denied = self._apply(cid, conn, message, now)
+            control = [c for c in POSE_CHANNELS if self._owner(c, now) == cid]
+            if denied and not control:
+                self.dropped += 1
+                return {"v": VERSION, "type": "dropped", "seq": seq, "reason": "not_in_control"}
             self.received += 1
-            return {"v": VERSION, "type": "ack", "seq": seq}
+            return {"v": VERSION, "type": "ack", "seq": seq, "control": control}
+
+    def _apply(self, cid: int, conn: _Connection, message: InputMessage, now: float) -> bool:
+        """Update the channels ``cid`` controls (or claims) from ``message``; returns whether it
+        asked for a channel another connection holds."""
+        denied = False
+        for channel in POSE_CHANNELS:
+            names = message.engaged & CHANNEL_NAMES[channel]
+            conn.streak[channel] = conn.streak[channel] + 1 if names else 0
+            owner = self._owner(channel, now)
+            drives = channel in message.engaged
+            if owner not in (None, cid) or (owner is None and not names):
+                denied = denied or (owner is not None and bool(names))
+                conn.clutch(channel).release()
+                continue
+            if owner is None:
+                if conn.streak[channel] < self.claim_after:
+                    continue  # claiming: not yet in control
+                # Taking (or, after stale samples, retaking) the channel starts a new grab: an AR
+                # phone's reference is captured again here, so its motion resumes without a jump.
+                conn.clutch(channel).release()
+            pose = None
+            if not drives:
+                conn.clutch(channel).release()
+            elif message.viewer is not None:
+                clutch = conn.clutch(channel)
+                motion = clutch.update(message.viewer.p, message.viewer.q)
+                pose = Pose(motion.p, motion.q, self._grab(channel, cid, motion.grab))
+            elif channel in message.poses:
+                sent = message.poses[channel]
+                pose = Pose(sent.p, sent.q, self._grab(channel, cid, sent.grab))
+            gripper = message.gripper if channel == "arm" else None
+            self._held[channel] = _Held(cid, names, pose, gripper, now)
+        return denied
 
     # -- the loop side --------------------------------------------------------------------------
     def poll(self, now: float) -> InputState:
-        """The input state for one loop tick (the device interface)."""
+        """The input state for one loop tick (the device interface): the engaged channels'
+        newest samples, each from the connection that controls it."""
         with self._lock:
             pressed = frozenset(f"event_{name}" for name in self._events)
             self._events.clear()
-            sample = self._sample
-            if sample is None or now - self._sample_time > self.max_age:
-                return InputState(t=now, source="web", enabled=False, pressed=pressed)
-            received = self._sample_time if self._sample_fresh else None
-            self._sample_fresh = False
-            scalars = {} if sample.gripper is None else {"gripper": sample.gripper}
+            poses: dict[str, Pose] = {}
+            engaged: set[str] = set()
+            scalars: dict[str, float] = {}
+            received: float | None = None
+            for channel, held in self._held.items():
+                if not held.names or now - held.time > self.max_age:
+                    continue
+                engaged |= held.names
+                if held.pose is not None:
+                    poses[channel] = held.pose
+                if held.gripper is not None:
+                    scalars["gripper"] = held.gripper
+                if held.fresh:
+                    received = held.time if received is None else max(received, held.time)
+                    held.fresh = False
             return InputState(
                 t=now,
                 source="web",
-                enabled=bool(sample.engaged),
+                enabled=bool(engaged),
                 pressed=pressed,
-                poses=dict(sample.poses),
-                engaged=sample.engaged,
+                poses=poses,
+                engaged=frozenset(engaged),
                 scalars=scalars,
                 received=received,
             )

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import asyncio
 import secrets
+import signal
 import threading
 from collections.abc import Callable
 from importlib import resources
@@ -40,14 +41,14 @@ from fastapi.responses import HTMLResponse, JSONResponse, Response
 import kinder_core
 from kinder_gym.demos.record import EpisodeRecord
 from kinder_gym.teleop.loop import Clock, TeleopLoop
-from kinder_gym.teleop.mapper3d import Limits, TidyBotTeleop
+from kinder_gym.teleop.mapper3d import Limits, TidyBotTeleop, ee_pose_in_base
 from kinder_gym.teleop.web.frames import (
     FrameWorker,
     jpeg_views,
     set_image_size,
 )
-from kinder_gym.teleop.web.hub import WebHub
-from kinder_gym.teleop.web.protocol import VERSION
+from kinder_gym.teleop.web.hub import CLAIM_AFTER, WebHub
+from kinder_gym.teleop.web.protocol import MAX_MESSAGE_BYTES, VERSION
 
 STATUS_PERIOD = 0.1
 
@@ -102,8 +103,13 @@ def create_app(hub: WebHub, token: str, hello: dict[str, Any] | None = None) -> 
         pusher = asyncio.create_task(push_status())
         try:
             while True:
-                text = await websocket.receive_text()
-                await websocket.send_json(hub.handle_text(cid, text))
+                message = await websocket.receive()
+                if message["type"] == "websocket.disconnect":
+                    break
+                data = message.get("text")
+                if data is None:
+                    data = message.get("bytes") or b""
+                await websocket.send_json(hub.handle_text(cid, data))
         except WebSocketDisconnect:
             pass
         finally:
@@ -134,6 +140,7 @@ class WebTeleop:
         clock: Injected clock (tests).
         token: Session token (random by default).
         auto_save: Save successful episodes automatically.
+        claim_after: Consecutive engaged messages before a connection takes a free channel.
     """
 
     def __init__(
@@ -151,12 +158,17 @@ class WebTeleop:
         token: str | None = None,
         auto_save: bool = True,
         frame_process: bool = False,
+        claim_after: int = CLAIM_AFTER,
     ) -> None:
         self.env = kinder_core.make(env_id, render_mode="rgb_array")
         set_image_size(self.env, *frame_size)
         self.frame_worker = FrameWorker(env_id, frame_size) if frame_process else None
         self.mapper = TidyBotTeleop(self.env, hz=hz, limits=limits)
-        self.hub = WebHub(max_age=max_age, clock=clock.now if clock is not None else None)
+        self.hub = WebHub(
+            max_age=max_age,
+            clock=clock.now if clock is not None else None,
+            claim_after=claim_after,
+        )
         self.loop = TeleopLoop(
             self.env,
             env_id,
@@ -174,7 +186,13 @@ class WebTeleop:
         # Nothing is rendered here: MuJoCo's EGL context belongs to the thread that first
         # renders, which must be the loop's (or the frame worker's) thread.
         self.publish_status()
-        hello = {"env_id": env_id, "max_age_ms": max_age * 1000.0, "hz": hz}
+        hello = {
+            "env_id": env_id,
+            "max_age_ms": max_age * 1000.0,
+            "hz": hz,
+            "max_message_bytes": MAX_MESSAGE_BYTES,
+            "claim_after": self.hub.claim_after,
+        }
         self.app = create_app(self.hub, self.token, hello)
 
     def publish_frames(self) -> None:
@@ -192,8 +210,10 @@ class WebTeleop:
 
     def publish_status(self) -> None:
         status = self.loop.status.to_dict()
-        base, _ = self.mapper.measured(self.env)
+        base, arm = self.mapper.measured(self.env)
+        ee_p, ee_q = ee_pose_in_base(arm)
         status["base"] = [float(v) for v in base]
+        status["ee"] = [float(v) for v in (*ee_p, *ee_q)]
         status["received"] = self.hub.received
         status["dropped"] = self.hub.dropped
         status["cameras"] = self.hub.camera_names()
@@ -285,11 +305,31 @@ def serve(
             except OSError:
                 shown = "localhost"
     print_url(f"{scheme}://{shown}:{bound}/?token={teleop.token}")
+    previous = _stop_on_signals(teleop)
     try:
         teleop.run(max_ticks=max_ticks)
     except KeyboardInterrupt:
         pass
     finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
         server.stop()
         teleop.close()
     return teleop
+
+
+def _stop_on_signals(teleop: WebTeleop) -> dict[int, Any]:
+    """Make Ctrl+C (SIGINT) and SIGTERM end the loop after its current tick, so an episode being
+    saved is written whole and the caller's clean-up (closing the frame worker, building the
+    dataset) runs; a second signal interrupts at once. Returns the handlers it replaced (none
+    outside the main thread, where signals cannot be caught)."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+
+    def handler(signum: int, frame: Any) -> None:
+        if teleop.loop.quit:
+            raise KeyboardInterrupt
+        print(f"\n{signal.Signals(signum).name}: stopping after this tick", flush=True)
+        teleop.loop.quit = True
+
+    return {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
