@@ -1,8 +1,11 @@
 """Generate docs/results.md from the run summaries committed in benchmarks/results/.
 
 Every ``benchmarks/results/*_summary.csv`` (with a ``command`` column) becomes a table, and all of
-them fill the paper's Table II layout beside the paper's figures
-(:mod:`kinder_bench.results_doc`). ``--check`` fails when docs/results.md is out of date.
+them fill the paper's Table II layout beside the paper's figures under one rule: a cell holds a
+run at the paper's protocol, every other run is a labelled variant row, ``n/r`` says why and
+how to run it; the page opens with the count of the paper's cells in each state and ends with
+the baselines' deviations from the paper (:mod:`kinder_bench.results_doc`). ``--check`` fails
+when docs/results.md is out of date.
 
 Usage:
     python tools/gen_results_doc.py            # write docs/results.md (= make results-doc)
