@@ -64,8 +64,8 @@ ENDPOINT_REASON = (
 
 #: The note of the diffusion-policy cells at the paper's training budget.
 DIFFUSION_REASON = (
-    "needs a GPU for the paper's training budget: a 224×224 image UNet, 100k steps × batch 64 per "
-    "env, "
+    "needs a GPU for the paper's training budget: a 224×224 image UNet, up to 5001 epochs at "
+    "batch 64 per env (our trainer's default: 100k steps), "
     "trains at 1–2 samples/s on this project's CPUs (benchmarks/results/learning.md); on a GPU: "
     "`python benchmarks/<dp|dpes>.py --env <env> --preset paper --device cuda --seeds 0-4 "
     "--episodes 50 --out runs/<dp|dpes>`"
