@@ -60,7 +60,8 @@ class BaseMotion3DEnv(Kinematic3DEnv):
     ## Action Space
     An 11-D float32 Box: Δbase x, y (m) and yaw (rad), Δjoint 1..7 (rad), each bounded by
     ±0.4, and a gripper command in [−1, 1] (< −0.5 close, > 0.5 open). The base is clipped to
-    ±10 m, the limited arm joints to their limits; continuous joints and yaw wrap to [−π, π).
+    ±10 m, joints 2, 4 and 6 to the Kinova URDF's limits (±2.41, ±2.66, ±2.23); the yaw wraps to
+    [−π, π), the continuous joints do not (config `wrap_joints`).
 
     ## Reward
     −1 on every step.
@@ -81,14 +82,17 @@ class BaseMotion3DEnv(Kinematic3DEnv):
     * v0: first release in kinder-garden3d.
 
     ## Deviations
-    Upstream draws the target with a random yaw, which has no effect on a sphere; only x and y
-    are sampled here. Upstream registers no step limit; this id uses 200.
+    The initial target is upstream's for the same seed (its yaw is drawn and dropped: a sphere
+    has none). Upstream's `reset(options={"init_state": ...})` puts the target at z = 0 where
+    its seeded resets use 0.2 (a bug there); here a loaded state keeps its target height.
+    Upstream registers no step limit; this id uses 200.
     Shared with every Kinematic3D env here: the robot is a primitive-shape model of the
     TidyBot++/Gen3/2F-85 (see `kinder_garden3d/robot/README.md`), not upstream's meshes; plain
     colours replace textures and there is no textured background (upstream `realistic_bg`);
     the overview camera looks from yaw 50° instead of 90° so the arm does not hide the scene;
-    robot self-collisions are not checked; touching counts as a collision only past 0.1 mm of
-    penetration.
+    the grasp closes the pads until they touch, so `finger_state` stops at a different value
+    than upstream's Robotiq linkage (5 cm cube: 0.17 against 0.20); collision verdicts near
+    contact can differ with the robot's shapes.
     """
 
     def __init__(

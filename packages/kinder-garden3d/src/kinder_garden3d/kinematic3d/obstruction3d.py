@@ -16,7 +16,7 @@ from kinder_garden3d.kinematic3d.base_env import (
     Kinematic3DEnv,
     Rgba,
 )
-from kinder_garden3d.kinematic3d.geometry import Part, quat_to_matrix, rects_overlap_2d
+from kinder_garden3d.kinematic3d.geometry import Array, Part, aabb_distance, quat_to_matrix
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE
 from kinder_garden3d.kinematic3d.scene import BodySpec
 
@@ -34,9 +34,9 @@ class Obstruction3DConfig(Kinematic3DConfig):
         block_half_z: Block half height.
         obstruction_half_low, obstruction_half_high: Uniform range of obstruction half extents.
         on_region_prob: Probability that an obstruction starts on the region.
-        max_overhang: Largest overhang of an obstruction past the region edge, as a fraction of
-            its own footprint.
-        placement_margin: Clearance kept between sampled objects.
+        max_overhang: How far an obstruction's centre may lie past the region's edge, as a
+            fraction of the obstruction's half extent.
+        max_sampling_attempts: Draws per object before a reset gives up.
     """
 
     max_action_mag: float = 0.2
@@ -53,7 +53,7 @@ class Obstruction3DConfig(Kinematic3DConfig):
     obstruction_half_high: Vec3 = (0.02, 0.02, 0.03)
     on_region_prob: float = 0.9
     max_overhang: float = 0.25
-    placement_margin: float = 0.005
+    max_sampling_attempts: int = 100_000
     camera_target: tuple[float, float, float] = (0.2, 0.0, -0.05)
     camera_distance: float = 1.3
     camera_pitch: float = -40.0
@@ -90,14 +90,16 @@ class Obstruction3DEnv(Kinematic3DEnv):
     −1 on every step.
 
     ## Starting State
-    Robot at (−0.12, 0, 0) with base height −0.4, arm retracted, gripper open. Table centre
-    (0.3, 0, −0.175), half extents (0.2, 0.4, 0.25). The region's half extents are uniform in
-    [(0.02, 0.02, 0.005), (0.05, 0.05, 0.005)], and it lies fully on the table top. The block
+    Upstream's initial state for the same seed. Robot at (−0.12, 0, 0) with base height −0.4,
+    arm retracted, gripper open. Table centre (0.3, 0, −0.175), half extents (0.2, 0.4, 0.25).
+    The region's half extents are uniform in [(0.02, 0.02, 0.005), (0.05, 0.05, 0.005)], and it
+    lies fully on the table top. The block
     has 0.8 × the region's x/y half extents, half height 0.025, and lies on the table without
     touching the region. Each obstruction has half extents uniform in
-    [(0.01, 0.01, 0.01), (0.02, 0.02, 0.03)] and starts on the region (probability 0.9, with at
-    most 25 % overhang) or elsewhere on the table. All objects are axis-aligned and
-    collision-free.
+    [(0.01, 0.01, 0.01), (0.02, 0.02, 0.03)] and starts on the region (a coin of probability 0.9
+    per try; its centre may lie up to 25 % of its half extents past the region's edge) or
+    elsewhere on the table off the region. All objects are axis-aligned and touch nothing but
+    their support.
 
     ## Episode End
     Terminates when nothing is held and the block rests on the region: in the region's frame
@@ -116,8 +118,9 @@ class Obstruction3DEnv(Kinematic3DEnv):
     TidyBot++/Gen3/2F-85 (see `kinder_garden3d/robot/README.md`), not upstream's meshes; plain
     colours replace textures and there is no textured background (upstream `realistic_bg`);
     the overview camera looks from yaw 50° instead of 90° so the arm does not hide the scene;
-    robot self-collisions are not checked; touching counts as a collision only past 0.1 mm of
-    penetration.
+    the grasp closes the pads until they touch, so `finger_state` stops at a different value
+    than upstream's Robotiq linkage (5 cm cube: 0.17 against 0.20); collision verdicts near
+    contact can differ with the robot's shapes.
     """
 
     def __init__(
@@ -155,74 +158,57 @@ class Obstruction3DEnv(Kinematic3DEnv):
         return [self.robot, self.region, self.block, *sorted(self.obstructions)]
 
     def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
+        """Upstream's sampler, draw for draw: the region's half extents and its pose on the
+        table; the block's pose until it keeps off the region; then per obstruction its half
+        extents and, until it touches nothing, a coin (``on_region_prob``) and a pose on the
+        region (overhanging its edge by up to ``max_overhang`` of its own half extents) or on
+        the table (then also off the region). Touching means within ``collision_distance``."""
         cfg = self.config
-        tx, ty, tz = cfg.table_pos
-        thx, thy, thz = cfg.table_half
-        top = tz + thz
-        margin = cfg.placement_margin
+        table_c, table_h = np.array(cfg.table_pos), np.array(cfg.table_half)
 
-        def on_table(hx: float, hy: float) -> tuple[float, float]:
-            return (
-                float(rng.uniform(tx - thx + hx, tx + thx - hx)),
-                float(rng.uniform(ty - thy + hy, ty + thy - hy)),
-            )
+        def on_top_of(c: Array, h: Array, half: Array, overhang: float) -> Array:
+            lo = c - h - half * overhang
+            hi = c + h + half * overhang
+            z = c[2] + h[2] + half[2]
+            if overhang == 0.0:
+                lo, hi = c - h + half, c + h - half
+            return rng.uniform((lo[0], lo[1], z), (hi[0], hi[1], z))
 
-        for _ in range(cfg.max_reset_tries):
-            rh = rng.uniform(cfg.region_half_low, cfg.region_half_high)
-            rxy = on_table(rh[0], rh[1])
-            bh = np.array([rh[0] * cfg.block_scale, rh[1] * cfg.block_scale, cfg.block_half_z])
-            bxy = on_table(bh[0], bh[1])
-            if rects_overlap_2d(bxy, (bh[0], bh[1]), rxy, (rh[0], rh[1]), margin):
-                continue
-            placed: list[tuple[tuple[float, float], tuple[float, float], float, float]] = [
-                (rxy, (rh[0], rh[1]), top, top + 2 * rh[2]),
-                (bxy, (bh[0], bh[1]), top, top + 2 * bh[2]),
-            ]
-            obstructions = []
-            ok = True
-            for _o in self.obstructions:
-                oh = rng.uniform(cfg.obstruction_half_low, cfg.obstruction_half_high)
-                on_region = rng.uniform() < cfg.on_region_prob
-                for _try in range(50):
-                    if on_region:
-                        slack = 2 * cfg.max_overhang * oh[:2]  # 25 % of the footprint
-                        lim = np.maximum(rh[:2] - oh[:2] + slack, 0.0)
-                        oxy = (
-                            float(rxy[0] + rng.uniform(-lim[0], lim[0])),
-                            float(rxy[1] + rng.uniform(-lim[1], lim[1])),
-                        )
-                        base = top + 2 * rh[2]
-                    else:
-                        oxy = on_table(oh[0], oh[1])
-                        base = top
-                    z0, z1 = base, base + 2 * oh[2]
-                    clash = any(
-                        rects_overlap_2d(oxy, (oh[0], oh[1]), c, h, margin)
-                        and z0 < pz1 - 1e-9
-                        and pz0 < z1 - 1e-9
-                        for c, h, pz0, pz1 in placed
-                    )
-                    # Obstructions must also keep off the region unless they stand on it.
-                    if base == top and rects_overlap_2d(oxy, (oh[0], oh[1]), rxy, (rh[0], rh[1])):
-                        clash = True
-                    if not clash:
-                        placed.append((oxy, (oh[0], oh[1]), z0, z1))
-                        obstructions.append(((oxy[0], oxy[1], base + oh[2]), oh))
-                        break
+        def touches(c1: Array, h1: Array, c2: Array, h2: Array) -> bool:
+            return aabb_distance(c1, h1, c2, h2) <= cfg.collision_distance
+
+        rh = rng.uniform(cfg.region_half_low, cfg.region_half_high)
+        rc = on_top_of(table_c, table_h, rh, 0.0)
+        bh = np.array([rh[0] * cfg.block_scale, rh[1] * cfg.block_scale, cfg.block_half_z])
+        for _ in range(cfg.max_sampling_attempts):
+            bc = on_top_of(table_c, table_h, bh, 0.0)
+            if not touches(bc, bh, rc, rh):
+                break
+        else:
+            raise self._reset_error("a block pose off the region")
+        placed: list[tuple[Array, Array]] = []
+        for _o in self.obstructions:
+            oh = rng.uniform(cfg.obstruction_half_low, cfg.obstruction_half_high)
+            for _ in range(cfg.max_sampling_attempts):
+                others = [(bc, bh), *placed]
+                if rng.uniform() < cfg.on_region_prob:
+                    oc = on_top_of(rc, rh, oh, cfg.max_overhang)
                 else:
-                    ok = False
+                    oc = on_top_of(table_c, table_h, oh, 0.0)
+                    others.append((rc, rh))
+                if not any(touches(oc, oh, c, h) for c, h in others):
+                    placed.append((oc, oh))
                     break
-            if not ok:
-                continue
-            features = {
-                self.robot: self.robot_features(),
-                self.region: self.cuboid_features((rxy[0], rxy[1], top + rh[2]), rh),
-                self.block: self.cuboid_features((bxy[0], bxy[1], top + bh[2]), bh),
-            }
-            for obj, (pos, oh) in zip(self.obstructions, obstructions, strict=True):
-                features[obj] = self.cuboid_features(pos, oh)
-            return ObjectCentricState.from_features(features)
-        raise self._reset_error("a collision-free table layout")
+            else:
+                raise self._reset_error("an obstruction pose")
+        features = {
+            self.robot: self.robot_features(),
+            self.region: self.cuboid_features(rc, rh),
+            self.block: self.cuboid_features(bc, bh),
+        }
+        for obj, (oc, oh) in zip(self.obstructions, placed, strict=True):
+            features[obj] = self.cuboid_features(oc, oh)
+        return ObjectCentricState.from_features(features)
 
     def goal_reached(self, state: ObjectCentricState) -> bool:
         if state.get(self.robot, "grasp_active") > 0.5:

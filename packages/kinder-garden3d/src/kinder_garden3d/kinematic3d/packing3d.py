@@ -130,13 +130,16 @@ class Packing3DEnv(Kinematic3DEnv):
     * v0: first release in kinder-garden3d.
 
     ## Deviations
-    Parts start unrotated. Upstream registers no step limit; these ids use 500.
+    Parts start unrotated. The reset does not draw upstream's random numbers in upstream's order
+    (same layout rules, not the same state for a seed). Upstream registers no step limit; these
+    ids use 500.
     Shared with every Kinematic3D env here: the robot is a primitive-shape model of the
     TidyBot++/Gen3/2F-85 (see `kinder_garden3d/robot/README.md`), not upstream's meshes; plain
     colours replace textures and there is no textured background (upstream `realistic_bg`);
     the overview camera looks from yaw 50° instead of 90° so the arm does not hide the scene;
-    robot self-collisions are not checked; touching counts as a collision only past 0.1 mm of
-    penetration.
+    the grasp closes the pads until they touch, so `finger_state` stops at a different value
+    than upstream's Robotiq linkage (5 cm cube: 0.17 against 0.20); collision verdicts near
+    contact can differ with the robot's shapes.
     """
 
     def __init__(

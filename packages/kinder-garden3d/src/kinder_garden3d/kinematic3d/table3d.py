@@ -71,15 +71,17 @@ class Table3DEnv(Kinematic3DEnv):
 
     ## Action Space
     An 11-D float32 Box: Δbase x, y, yaw and Δjoint 1..7, each bounded by ±0.4, and a gripper
-    command in [−1, 1] (< −0.5 close, > 0.5 open). The base stays within ±1 m.
+    command in [−1, 1] (< −0.5 close, > 0.5 open). The base stays within ±10 m; only the
+    arm and the held object are collision-checked (not the base), as upstream.
 
     ## Reward
     −1 on every step.
 
     ## Starting State
-    Robot at the origin, arm retracted, gripper open. Table centre (0.6, 0, 0.2), half extents
-    (0.2, 0.4, 0.2), so its top is at z = 0.4. Cubes (half edge 0.025) are placed uniformly on
-    the table top, axis-aligned and at least 1 cm apart.
+    Upstream's initial state for the same seed. Robot at the origin, arm retracted, gripper
+    open. Table centre (0.6, 0, 0.2), half extents (0.2, 0.4, 0.2), so its top is at z = 0.4.
+    All cubes (half edge 0.025) are drawn uniformly on the table top, axis-aligned, and drawn
+    again together while two of them touch.
 
     ## Episode End
     Terminates when some cube is held with its centre more than 0.1 m above the table top. The
@@ -92,15 +94,17 @@ class Table3DEnv(Kinematic3DEnv):
     * v0: first release in kinder-garden3d.
 
     ## Deviations
-    The upstream docs say −0.01 per step; the upstream code (and this env) gives −1. The floor
-    is a collision object here, so the arm cannot pass through it. Upstream registers no step
+    The upstream docs say −0.01 per step; the upstream code (and this env) gives −1. As
+    upstream, the floor is only drawn (`floor_collides` makes it a collision object and a
+    surface). Upstream registers no step
     limit; these ids use 300.
     Shared with every Kinematic3D env here: the robot is a primitive-shape model of the
     TidyBot++/Gen3/2F-85 (see `kinder_garden3d/robot/README.md`), not upstream's meshes; plain
     colours replace textures and there is no textured background (upstream `realistic_bg`);
     the overview camera looks from yaw 50° instead of 90° so the arm does not hide the scene;
-    robot self-collisions are not checked; touching counts as a collision only past 0.1 mm of
-    penetration.
+    the grasp closes the pads until they touch, so `finger_state` stops at a different value
+    than upstream's Robotiq linkage (5 cm cube: 0.17 against 0.20); collision verdicts near
+    contact can differ with the robot's shapes.
     """
 
     def __init__(

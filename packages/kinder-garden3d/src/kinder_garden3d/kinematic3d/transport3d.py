@@ -78,21 +78,25 @@ class Transport3DEnv(Kinematic3DEnv):
     finger_state, grasp_active, grasp_tf_x … grasp_tf_qw`;
     `Kinematic3DCuboid` (12): `pose_x, pose_y, pose_z, pose_qx, pose_qy, pose_qz, pose_qw,
     grasp_active, object_type, half_extent_x, half_extent_y, half_extent_z` (the box has
-    object_type 1 = open-top container with 0.01 m walls). Quaternions are ordered
+    object_type −1 for every cuboid, as upstream; the box is nevertheless an open-top container
+    with 0.01 m walls). Quaternions are ordered
     (x, y, z, w).
 
     ## Action Space
     An 11-D float32 Box: Δbase x, y, yaw and Δjoint 1..7, each bounded by ±0.2, and a gripper
-    command in [−1, 1] (< −0.5 close, > 0.5 open). The base stays within ±1 m.
+    command in [−1, 1] (< −0.5 close, > 0.5 open). The base stays within ±10 m; only the
+    arm and the held object are collision-checked (not the base), as upstream.
 
     ## Reward
     −1 on every step.
 
     ## Starting State
-    Robot at the origin, arm retracted, gripper open. Table centre (0.6, 0, 0.2), half extents
-    (0.2, 0.4, 0.2). The box (half extents (0.1, 0.15, 0.1)) and the cubes stand on the floor
-    in [−0.8, 0.8]², axis-aligned, at least 5 cm from each other and from the table, and
-    outside the 0.6 m square around the base.
+    Upstream's initial state for the same seed. Robot at the origin, arm retracted, gripper
+    open. Table centre (0.6, 0, 0.2), half extents (0.2, 0.4, 0.2). The box (half extents
+    (0.1, 0.15, 0.1)) and then each cube stand on the floor with centres uniform in
+    [−1.5, 1.5]², axis-aligned, not touching the base's 0.548 × 0.508 m footprint, the table or
+    each other; a cube is kept only when it lies nearer the box than the table (by 5 cm). The
+    floor's top face is 5 mm below them.
 
     ## Episode End
     Terminates when the gripper is open (finger state ≤ 0.01), the end effector is at least
@@ -107,15 +111,16 @@ class Transport3DEnv(Kinematic3DEnv):
     * v0 (spaces update): `box0` comes before the cubes in the vector, as upstream 0.2.5.
 
     ## Deviations
-    Upstream's start positions of the cubes (floor or inside the box) are unverified; here they
-    start on the floor. Colours replace upstream's textures. Upstream registers no step limit;
-    these ids use 500.
+    Upstream can release a held box anywhere (pybullet finds the box within any distance of
+    itself, a surface); here the box needs another surface. Colours replace upstream's
+    textures. Upstream registers no step limit; these ids use 500.
     Shared with every Kinematic3D env here: the robot is a primitive-shape model of the
     TidyBot++/Gen3/2F-85 (see `kinder_garden3d/robot/README.md`), not upstream's meshes; plain
     colours replace textures and there is no textured background (upstream `realistic_bg`);
     the overview camera looks from yaw 50° instead of 90° so the arm does not hide the scene;
-    robot self-collisions are not checked; touching counts as a collision only past 0.1 mm of
-    penetration.
+    the grasp closes the pads until they touch, so `finger_state` stops at a different value
+    than upstream's Robotiq linkage (5 cm cube: 0.17 against 0.20); collision verdicts near
+    contact can differ with the robot's shapes.
     """
 
     def __init__(
