@@ -382,6 +382,9 @@ def test_cli_report_paper_and_html(fixture_run: Path, tmp_path: Path) -> None:
     assert "BP (bilevel_planning)" in result.output and "Not run:" in result.output
     assert "| variants only (listed under the table) | 1 |" in result.output
     assert (tmp_path / "report.html").exists() and (tmp_path / "paper_comparison.csv").exists()
+    page = (tmp_path / "report.html").read_text()
+    assert "<table id='counts'>" in page
+    assert "<td>variants only (listed under the table)</td><td class='num'>1</td>" in page
     config = json.loads((fixture_run / "config.json").read_text())
     assert {r["command"] for r in config["runs"]} == {"kinder bench run (test fixture)"}
 

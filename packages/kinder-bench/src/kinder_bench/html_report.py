@@ -36,6 +36,7 @@ from kinder_bench.paper import (
     PaperResults,
     Result,
     at_paper_protocol,
+    cell_counts,
     fmt_stat,
     load_paper,
     metric_digits,
@@ -326,6 +327,13 @@ def render_html(
             "show the paper's cells we did not run (with the reason)</label></fieldset>"
         )
     w("</div></section>")
+
+    # The paper's cells by state (the same counts as the markdown comparison).
+    if comparison is not None:
+        w("<section><h2>The paper's cells</h2><table id='counts'><tbody>")
+        for state, n in cell_counts(comparison):
+            w(f"<tr><td>{_e(state)}</td><td class='num'>{n}</td></tr>")
+        w("</tbody></table></section>")
 
     # Table.
     w(f"<section><h2>Results (<span id='shown'>{len(rows)}</span> rows shown)</h2>")

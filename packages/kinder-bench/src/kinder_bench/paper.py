@@ -560,23 +560,27 @@ def _short_reason(reason: str) -> str:
     return reason.strip().rstrip(".")
 
 
-def counts_markdown(comparison: Comparison) -> str:
-    """How many of the paper's (method × env) cells are at the paper's protocol, covered by
-    variants only, and not run (per reason, with its note letter)."""
+def cell_counts(comparison: Comparison) -> list[tuple[str, int]]:
+    """(state, count) of the paper's (method × env) cells: at the paper's protocol, covered by
+    variants only, then not run per reason (with its note letter), then the total."""
     cells = comparison.paper_cells()
-    notes = _notes(comparison)
-    n_paper = sum(c.status == PAPER for c in cells)
-    n_variants = sum(c.status == VARIANTS_ONLY for c in cells)
+    out = [
+        ("at the paper's protocol", sum(c.status == PAPER for c in cells)),
+        ("variants only (listed under the table)", sum(c.status == VARIANTS_ONLY for c in cells)),
+    ]
+    for why, letter in _notes(comparison).items():
+        out.append((f"n/r [{letter}]: {_short_reason(why)}", sum(c.reason == why for c in cells)))
+    out.append(("total", len(cells)))
+    return out
+
+
+def counts_markdown(comparison: Comparison) -> str:
+    """:func:`cell_counts` as a markdown table."""
     lines = [
         f"| The paper's {len(comparison.columns)} × {len(comparison.envs)} cells | count |",
         "|---|---|",
-        f"| at the paper's protocol | {n_paper} |",
-        f"| variants only (listed under the table) | {n_variants} |",
     ]
-    for why, letter in notes.items():
-        n = sum(c.reason == why for c in cells)
-        lines.append(f"| n/r [{letter}]: {_short_reason(why)} | {n} |")
-    lines.append(f"| total | {len(cells)} |")
+    lines += [f"| {state} | {n} |" for state, n in cell_counts(comparison)]
     return "\n".join(lines) + "\n"
 
 
