@@ -78,8 +78,9 @@ class ClutteredStorage2DEnv(Kinematic2DEnv):
     strip at x = 0, y = 2.625, 5 × 0.375; opening of width 0.3175 · max(1, N // 2) and the
     strip's height, x1 ~ U[0, 5 − width1]. The N // 2 stored blocks are centred in equal slots
     of the opening, 0.08 above its base, each turned by U[−π/16, π/16] about its centre. The
-    other blocks: centre uniform in the robot's start box, θ ~ U[−π, π], redrawn until nothing
-    collides.
+    other blocks: anchor (bottom-left corner, as upstream) uniform in the robot's start box,
+    θ ~ U[−π, π], redrawn until nothing collides. The draws are upstream's, in its order, so a
+    seed gives upstream's initial state.
 
     ## Episode End
     1. Termination: every block is inside the shelf opening (`is_inside_shelf` for each: all
@@ -135,25 +136,32 @@ class ClutteredStorage2DEnv(Kinematic2DEnv):
         width1 = (bw + c.slot_padding) * max(1, n_in)
 
         def sample() -> ObjectCentricState | None:
+            # Upstream's draws, in its order: the robot pose, the opening's pose (x, then y and
+            # theta from one-value ranges), the stored blocks' rotations, then each floor
+            # block's pose (its anchor, the bottom-left corner, as upstream) until it touches
+            # nothing.
             robot = self.robot_features(
                 rng.uniform(*c.robot_init_x),
                 rng.uniform(*c.robot_init_y),
                 rng.uniform(-np.pi, np.pi),
             )
             x1 = rng.uniform(c.world_min_x, c.world_max_x - width1)
+            y1, th1 = rng.uniform(shelf_y, shelf_y), rng.uniform(0.0, 0.0)
             feats: dict[Object, list[float]] = {
                 self.robot: robot,
                 self.shelf: [
-                    *(c.world_min_x, shelf_y, 0.0, 1.0, *BLACK, ZOrder.ALL),
+                    *(c.world_min_x, y1, th1, 1.0, *BLACK, ZOrder.ALL),
                     *(c.world_max_x - c.world_min_x, c.shelf_height),
-                    *(x1, shelf_y, 0.0, width1, c.shelf_height, ZOrder.NONE, *PURPLE),
+                    *(x1, y1, th1, width1, c.shelf_height, ZOrder.NONE, *PURPLE),
                 ],
             }
             block = [0.0, *BLOCK_BLUE, ZOrder.SURFACE, bw, bh]  # static, colour, z-order, size
-            for k in range(n_in):
+            rotations = rng.uniform(
+                -c.block_in_shelf_max_rotation, c.block_in_shelf_max_rotation, size=n_in
+            )
+            for k, th in enumerate(rotations.tolist()):
                 cx = x1 + (k + 0.5) * width1 / n_in
                 cy = shelf_y + c.block_in_shelf_dy
-                th = rng.uniform(-c.block_in_shelf_max_rotation, c.block_in_shelf_max_rotation)
                 feats[self.blocks[k]] = [*_anchor_from_centre(cx, cy, th, bw, bh), th, *block]
             rg = robot_geometry(robot)
             placed = Bodies.concat(
@@ -175,18 +183,24 @@ class ClutteredStorage2DEnv(Kinematic2DEnv):
                         ),
                         [ZOrder.ALL] * 2,
                     ),
+                    *(
+                        Bodies.of(
+                            obbs_from_anchor(feats[b][0], feats[b][1], feats[b][2], bw, bh),
+                            [ZOrder.SURFACE],
+                        )
+                        for b in self.blocks[:n_in]
+                    ),
                 ]
             )
             for k in range(n_in, self.num_blocks):
-                for _ in range(c.max_sampling_tries):
-                    cx, cy = rng.uniform(*c.robot_init_x), rng.uniform(*c.robot_init_y)
+
+                def one(placed: Bodies = placed) -> tuple[float, float, float, Bodies] | None:
+                    x, y = rng.uniform(*c.robot_init_x), rng.uniform(*c.robot_init_y)
                     th = rng.uniform(-np.pi, np.pi)
-                    x, y = _anchor_from_centre(cx, cy, th, bw, bh)
                     probe = Bodies.of(obbs_from_anchor(x, y, th, bw, bh), [ZOrder.SURFACE])
-                    if not bodies_collide(probe, placed):
-                        break
-                else:
-                    return None
+                    return None if bodies_collide(probe, placed) else (x, y, th, probe)
+
+                x, y, th, probe = self._rejection_sample(one, f"block{k} clear of everything")
                 feats[self.blocks[k]] = [x, y, th, *block]
                 placed = Bodies.concat([placed, probe])
             state = ObjectCentricState.from_features(feats)

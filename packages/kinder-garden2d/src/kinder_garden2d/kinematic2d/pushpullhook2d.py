@@ -87,8 +87,10 @@ class PushPullHook2DEnv(Kinematic2DEnv):
     off. Hook (width 0.05, arms 1.25 and 0.625, z SURFACE): anchor x ~ U[0, 3.45],
     y ~ U[0.9375, 1.5625], θ ~ U[π/4, 3π/4]. Movable button (radius 0.05, blue, z SURFACE) and
     target button (radius 0.05, red, static, stored with z NONE): centres x ~ U[1.25, 2.35],
-    y ~ U[1.30, 1.95]. Everything is redrawn until nothing collides (the target button checked
-    as if it were on the SURFACE layer) and the buttons' centres are 0.15 to 0.30 apart.
+    y ~ U[1.30, 1.95]. The hook and the buttons are redrawn (the robot is drawn once) until
+    nothing collides (the target button checked as if it were on the SURFACE layer) and the
+    buttons' centres are 0.15 to 0.30 apart. The draws are upstream's, in its order, so a seed
+    gives upstream's initial state.
 
     ## Episode End
     1. Termination: both buttons are green (`all_pressed`).
@@ -173,38 +175,40 @@ class PushPullHook2DEnv(Kinematic2DEnv):
         assert isinstance(c, PushPullHook2DConfig)
         r = c.button_radius
 
+        # Upstream's draws, in its order: the robot pose once (its bounds keep it clear of the
+        # walls and the table), then the hook pose and each button's (x, y) until the hook and
+        # the buttons touch nothing and the buttons' centres are 0.15 to 0.30 apart.
+        robot = self.robot_features(
+            rng.uniform(*c.robot_init_x),
+            rng.uniform(*c.robot_init_y),
+            rng.uniform(-np.pi, np.pi),
+        )
+        rg = robot_geometry(robot)
+        robot_b = Bodies.of(
+            np.stack([rg.arm, rg.gripper]), [ZOrder.SURFACE] * 2, [rg.base], [ZOrder.ALL], owner=-1
+        )
+        low = (c.button_init_x[0], c.button_init_y[0])
+        high = (c.button_init_x[1], c.button_init_y[1])
+
         def sample() -> ObjectCentricState | None:
-            robot = self.robot_features(
-                rng.uniform(*c.robot_init_x),
-                rng.uniform(*c.robot_init_y),
-                rng.uniform(-np.pi, np.pi),
-            )
             hook = (
                 rng.uniform(*c.hook_init_x),
                 rng.uniform(*c.hook_init_y),
                 rng.uniform(*c.hook_init_theta),
             )
-            m = [rng.uniform(*c.button_init_x), rng.uniform(*c.button_init_y)]
-            t = [rng.uniform(*c.button_init_x), rng.uniform(*c.button_init_y)]
+            m = [float(v) for v in rng.uniform(low, high)]
+            t = [float(v) for v in rng.uniform(low, high)]
             lo, hi = c.button_init_distance
             if not lo < math.dist(m, t) < hi:
                 return None
-            rg = robot_geometry(robot)
             hook_boxes = lshape_obbs(*hook, c.hook_width, c.hook_side1, c.hook_side2)
             parts = [
-                Bodies.of(
-                    np.stack([rg.arm, rg.gripper]),
-                    [ZOrder.SURFACE] * 2,
-                    [rg.base],
-                    [ZOrder.ALL],
-                    owner=-1,
-                ),
                 Bodies.of(hook_boxes, [ZOrder.SURFACE] * 2, owner=0),
                 Bodies.of(circles=[[*m, r]], circle_z=[ZOrder.SURFACE], owner=1),
                 Bodies.of(circles=[[*t, r]], circle_z=[ZOrder.SURFACE], owner=2),
             ]
             for i, a in enumerate(parts):
-                if bodies_collide(a, self.world.constants):
+                if bodies_collide(a, robot_b) or bodies_collide(a, self.world.constants):
                     return None
                 if any(bodies_collide(a, b) for b in parts[i + 1 :]):
                     return None

@@ -3,8 +3,9 @@ face of it straight onto the target button.
 
 The buttons lie on the table, beyond the reach of the robot (whose base may not enter the table);
 the L-shaped hook (arms 1.25 and 0.625 m, 0.05 m wide) reaches them. While the robot holds the
-hook, a button that the hook runs into is pushed out of it by the smallest translation, so a flat
-face that moves along its own outward normal carries the button along that normal. The model
+hook, a button that the hook overlaps moves by the vector from the hook outline's closest point
+to the button's centre (upstream's rule), so a flat face that moves along its own outward normal
+in short steps (``PUSH_STEP``) carries the button ahead of it along that normal. The model
 therefore turns the hook so that one of its long faces has its outward normal along
 ``d = (target − movable) / |target − movable|``, puts that face just behind the movable button,
 and moves the robot straight along ``d`` until the button's centre reaches the target's (the
@@ -34,10 +35,11 @@ Operators (and skills):
   Pressed(target)}. Compute the hook pose that puts the chosen face's point 0.03 m behind the
   movable button (outward normal along ``d``), the robot pose that holds the hook there (the
   grasp is rigid), drive there (RRT-Connect carrying the hook, the button an obstacle), then move
-  straight along ``d`` by the gap plus the buttons' distance minus 0.03 m. Params (face, along):
-  face·8 picks one of the eight faces, ``along`` the contact point along it, at least the button
-  radius + 0.01 m from the face's ends (rejection-sampled: the base must stay off the table and
-  inside the world, and the approach and the push must be collision-free). Groundings whose
+  straight along ``d`` in 0.01 m steps by the gap plus the buttons' distance minus 0.03 m.
+  Params (face, along): face·8 picks one of the eight faces, ``along`` the contact point along
+  it, at least the button radius + 0.01 m from the face's ends (rejection-sampled: the base
+  must stay off the table and inside the world, and the approach and the push must be
+  collision-free). Groundings whose
   ``movable`` is static are filtered out.
 
 Upstream's models do not cover this env (the baselines spec lists no PushPullHook2D model); the
@@ -89,6 +91,11 @@ BASE_MARGIN = 1e-3
 PUSH_GAP = 0.03
 #: The push stops when the movable button's centre is this far (metres) short of the target's.
 PUSH_SHORTFALL = 0.03
+#: Length (metres) of each push step. The env moves a touched button by the distance from the
+#: hook's outline to the button's centre, so a face advancing by less than half the button
+#: radius per step carries the button ahead of it; a longer step can pass the centre, after
+#: which the button is pulled into the hook.
+PUSH_STEP = 0.01
 #: Contact points keep this much (metres) more than the button radius from a face's ends.
 FACE_END_MARGIN = 0.01
 #: Faces of the hook: 2 boxes × 4 sides.
@@ -314,7 +321,9 @@ class PushButtonController(_HookController):
             pre, end = got
             start = robot_config(s, self.robot)
             items = self.base_path(self.checker(s), start, pre, self.bounds(s), 1.0, salt=2)
-            return items + self.checked(self._push_checker(s), [pre, end], 1.0, "the push")
+            n = max(1, math.ceil(float(np.linalg.norm(end[:2] - pre[:2])) / PUSH_STEP))
+            line = [pre + (end - pre) * (k / n) for k in range(n + 1)]
+            return items + self.checked(self._push_checker(s), line, 1.0, "the push")
 
         return [push]
 
