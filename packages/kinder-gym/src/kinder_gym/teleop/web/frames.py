@@ -16,6 +16,7 @@ import io
 import multiprocessing
 import signal
 import sys
+import threading
 from multiprocessing.connection import Connection
 from typing import Any
 
@@ -94,7 +95,15 @@ class FrameWorker:
         ctx = multiprocessing.get_context("spawn")
         self._conn, child = ctx.Pipe()
         self._proc = ctx.Process(target=_worker, args=(env_id, size, child), daemon=True)
-        self._proc.start()
+        # The child inherits an ignored SIGINT from its first instruction on, so a Ctrl+C while
+        # it is still importing cannot interrupt it either (signals only in the main thread).
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            self._proc.start()
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, previous)
         self._busy = False
         self.ended = False
         """Whether the worker process has gone (killed, crashed): no more frames."""
