@@ -28,6 +28,7 @@ from scipy.spatial.transform import Rotation
 
 from kinder_core import make_object_centric
 from kinder_core.state import ObjectCentricState
+from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.robot.description import forward_kinematics, matrix_to_quat_xyzw
 from kinder_gym.models.dynamic3d.scoop_pour3d import (
     ScoopContext,
@@ -36,9 +37,11 @@ from kinder_gym.models.dynamic3d.scoop_pour3d import (
     handle_centre,
     scoop_context,
 )
-from kinder_gym.models.dynamic3d.shelf3d import GRIP_STEPS, READY, _ShelfController, _yaw_of
 from kinder_gym.models.dynamic3d.tidybot import (
+    GRIP_STEPS,
     HOME,
+    READY,
+    Dynamic3DController,
     Segment,
     SegmentSource,
     arm_joints,
@@ -125,11 +128,11 @@ def labelled(name: str, ctx: ScoopContext, f: Stage) -> Stage:
 
 def handle_yaw(state: ObjectCentricState, ctx: ScoopContext) -> float:
     """Heading across the handle, the one nearer +x."""
-    yaw = wrap_angle(_yaw_of(np.asarray(state[ctx.scoop][3:7])) + math.pi / 2)
+    yaw = wrap_angle(quat_yaw(np.asarray(state[ctx.scoop][3:7])) + math.pi / 2)
     return yaw if abs(yaw) <= math.pi / 2 else wrap_angle(yaw + math.pi)
 
 
-class Probe(_ShelfController):
+class Probe(Dynamic3DController):
     """Grasp (``stage == 0``) or stroke (``stage == 1``); see the module docstring."""
 
     args: argparse.Namespace
@@ -161,7 +164,7 @@ class Probe(_ShelfController):
                 )
 
             return [
-                self._drive(np.array([h[0] - 0.68, h[1], 0.0]), HOME, 0.0, 0.01),
+                self.drive(np.array([h[0] - 0.68, h[1], 0.0]), HOME, 0.0, 0.01),
                 labelled("above", ctx, above),
                 labelled("down", ctx, lambda s: line(s, ctx, pre, yaw, p0, a.preclose)),
                 labelled("in", ctx, lambda s: line(s, ctx, h, yaw, p0, a.preclose, 0.02)),
@@ -219,7 +222,7 @@ class Probe(_ShelfController):
         arm = arm_joints(state, ctx.robot)
         untips = [labelled(f"untip{d}", ctx, untip(math.radians(d))) for d in (80, 60, 40, 20)]
         return [
-            self._drive(np.array([-0.15, yc, 0.0]), arm, 1.0, 0.01),
+            self.drive(np.array([-0.15, yc, 0.0]), arm, 1.0, 0.01),
             labelled("carry", ctx, carry),
             labelled("tip", ctx, tip_in_place),
             labelled("lower", ctx, lower),

@@ -64,31 +64,31 @@ from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.dynamic3d.assets import OBJECT_TYPES
+from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE, SEESAW_TYPE
 from kinder_garden3d.dynamic3d.taskfile import TaskSpec
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.dynamic3d.shelf3d import (
+from kinder_gym.models.dynamic3d.tidybot import (
     CLOSED,
     CUBE_CLEARANCE,
     GRIP_STEPS,
+    HOME,
     PITCH,
     READY,
-    _segment_point_distance,
-    _segment_rect_distance,
-    _ShelfController,
-    _yaw_of,
-)
-from kinder_gym.models.dynamic3d.tidybot import (
-    HOME,
+    Dynamic3DController,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
     gripper_quat,
+    hand_predicates,
     ik_near,
     line_segments,
+    pick_operator,
     pinch_position,
+    segment_point_distance,
+    segment_rect_distance,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
 from kinder_gym.operators import LiftedOperator
@@ -151,7 +151,7 @@ class _Beam:
 
     def clear(self, a: FloatArray, b: FloatArray) -> bool:
         axes = np.stack([self.along2, self.across2], axis=1)
-        d = _segment_rect_distance(a, b, self.centre, axes, self.half)
+        d = segment_rect_distance(a, b, self.centre, axes, self.half)
         return d > CHASSIS_RADIUS + SEESAW_MARGIN
 
 
@@ -174,7 +174,7 @@ def _path_clear(
     if not _Beam(ctx, state).clear(a, b):
         return False
     return all(
-        _segment_point_distance(a, b, p) > CUBE_CLEARANCE for p in _floor_blocks(ctx, state, skip)
+        segment_point_distance(a, b, p) > CUBE_CLEARANCE for p in _floor_blocks(ctx, state, skip)
     )
 
 
@@ -210,7 +210,7 @@ def _route(
     raise SkillFailure("no clear straight or one-waypoint base path")
 
 
-class PickController(_ShelfController):
+class PickController(Dynamic3DController):
     """Pick a block off the floor. Objects: ``(robot, block)``."""
 
     params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
@@ -230,7 +230,7 @@ class PickController(_ShelfController):
         c = np.array([state.get(block, "x"), state.get(block, "y")])
         towards = np.array([state.get(ctx.seesaw, "x"), state.get(ctx.seesaw, "y")]) - c
         wanted = math.atan2(towards[1], towards[0]) + (float(self.params[1]) - 0.5) * math.pi / 2
-        block_yaw = _yaw_of(np.asarray(state[block][3:7]))
+        block_yaw = quat_yaw(np.asarray(state[block][3:7]))
         k = round((wanted - block_yaw) / (math.pi / 2))
         heading = wrap_angle(block_yaw + k * math.pi / 2)
         direction = np.array([math.cos(heading), math.sin(heading)])
@@ -256,12 +256,12 @@ class PickController(_ShelfController):
         plan: list[SegmentSource] = []
         if np.abs(arm_joints(state, robot) - HOME).max() > 0.05:
             plan.append(_arm_segment(HOME, 0.05))
-        plan += [self._drive(p, HOME, 0.0, 0.03) for p in route[:-1]]
-        plan += [self._drive(goal, HOME, 0.0, 0.01), reach_above, descend, _grip(1.0), lift]
+        plan += [self.drive(p, HOME, 0.0, 0.03) for p in route[:-1]]
+        plan += [self.drive(goal, HOME, 0.0, 0.01), reach_above, descend, _grip(1.0), lift]
         return plan
 
 
-class PlaceController(_ShelfController):
+class PlaceController(Dynamic3DController):
     """Place the held block on the beam. Objects: ``(robot, block, seesaw)``."""
 
     params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
@@ -306,8 +306,8 @@ class PlaceController(_ShelfController):
             target = here + np.array([0.0, 0.0, RETREAT])
             return list(line_segments(s, robot, target, heading, PITCH, 0.0, spacing=0.04))
 
-        drives: list[SegmentSource] = [self._drive(p, arm, 1.0, 0.03) for p in route[:-1]]
-        return [*drives, self._drive(goal, arm, 1.0, 0.01), lower, _grip(0.0), retreat]
+        drives: list[SegmentSource] = [self.drive(p, arm, 1.0, 0.03) for p in route[:-1]]
+        return [*drives, self.drive(goal, arm, 1.0, 0.01), lower, _grip(0.0), retreat]
 
 
 def _arm_segment(q: FloatArray, tol: float = 0.01) -> SegmentSource:
@@ -335,8 +335,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     stiffness = float(_params(task, SEESAW)["hinge_stiffness"])
     ctx = BalanceContext(env, robot_obj, seesaw, blocks, masses, stiffness)
 
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    HandEmpty, Holding = hand_predicates()
     OnGround = Predicate("OnGround", (MOVABLE_TYPE,))
     OnBeam = Predicate("OnBeam", (MOVABLE_TYPE, SEESAW_TYPE))
     Balanced = Predicate("Balanced", (SEESAW_TYPE,))
@@ -365,13 +364,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     r = Variable("?robot", ROBOT_TYPE)
     b = Variable("?block", MOVABLE_TYPE)
     s = Variable("?seesaw", SEESAW_TYPE)
-    pick = LiftedOperator(
-        "Pick",
-        (r, b),
-        frozenset({HandEmpty.lift([r]), OnGround.lift([b])}),
-        frozenset({Holding.lift([r, b])}),
-        frozenset({HandEmpty.lift([r]), OnGround.lift([b])}),
-    )
+    pick = pick_operator(b, OnGround)
     place = LiftedOperator(
         "Place",
         (r, b, s),

@@ -77,23 +77,19 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.dynamic3d.object_types import FIXTURE_TYPE, MOVABLE_TYPE, ROBOT_TYPE
 from kinder_garden3d.robot.description import forward_kinematics
 from kinder_gym.concepts import GroundAtom
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.dynamic3d.shelf3d import (
+from kinder_gym.models.dynamic3d.tidybot import (
     CHASSIS_RADIUS,
     CLOSED,
     GRIP_STEPS,
+    MAX_DELTA,
     PITCH,
     READY,
-    _segment_rect_distance,
-    _ShelfController,
-    _yaw_of,
-    pick_place_domain,
-)
-from kinder_gym.models.dynamic3d.tidybot import (
-    MAX_DELTA,
+    Dynamic3DController,
     Segment,
     SegmentSource,
     arm_joints,
@@ -102,7 +98,9 @@ from kinder_gym.models.dynamic3d.tidybot import (
     gripper_quat,
     line_segments,
     nearest_ik,
+    pick_place_domain,
     pinch_position,
+    segment_rect_distance,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
 from kinder_gym.skills import Skill, SkillFailure
@@ -153,11 +151,12 @@ class _Cupboard:
 
 def _rod_axis(state: ObjectCentricState, rod: Object) -> tuple[FloatArray, FloatArray]:
     """The rod's centre (x, y, z) and the unit vector (x, y) along its length."""
-    yaw = _yaw_of(np.asarray(state[rod][3:7]))
+    yaw = quat_yaw(np.asarray(state[rod][3:7]))
     return np.asarray(state[rod][:3], dtype=np.float64), np.array([-math.sin(yaw), math.cos(yaw)])
 
 
-def _rod_length(state: ObjectCentricState, rod: Object) -> float:
+def rod_length(state: ObjectCentricState, rod: Object) -> float:
+    """Length (m) of a rod (its bounding box's y extent)."""
     return float(state.get(rod, "bb_y"))
 
 
@@ -165,7 +164,7 @@ def nearest_axis_point(state: ObjectCentricState, rod: Object, point: FloatArray
     """The point of the (level) rod's axis segment nearest ``point`` in the plane, at the
     rod's centre height."""
     centre, axis = _rod_axis(state, rod)
-    half = _rod_length(state, rod) / 2
+    half = rod_length(state, rod) / 2
     t = float(np.clip(np.dot(point[:2] - centre[:2], axis), -half, half))
     return np.array([*(centre[:2] + t * axis), centre[2]])
 
@@ -177,16 +176,16 @@ def _clear_of_cupboards(
     cupboard."""
     for cupboard in ctx.cupboards:
         params = ctx.env.task.fixtures[cupboard.name].params  # type: ignore[attr-defined]
-        yaw = _yaw_of(np.asarray(state[cupboard][3:7]))
+        yaw = quat_yaw(np.asarray(state[cupboard][3:7]))
         axes = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
         centre = np.array([state.get(cupboard, "x"), state.get(cupboard, "y")])
         half = np.array([float(params["length"]) / 2, float(params["depth"]) / 2])
-        if _segment_rect_distance(a, b, centre, axes, half) <= CHASSIS_RADIUS + 0.05:
+        if segment_rect_distance(a, b, centre, axes, half) <= CHASSIS_RADIUS + 0.05:
             return False
     return True
 
 
-class PickController(_ShelfController):
+class PickController(Dynamic3DController):
     """Pick a rod off the floor near one of its ends. Objects: ``(robot, rod)``."""
 
     params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
@@ -210,7 +209,7 @@ class PickController(_ShelfController):
         if float(self.params[0]) < 0.5:
             axis = -axis  # approach from the +axis end, facing -axis
         # `axis` points from the grasped end towards the rod's centre: the heading.
-        end = centre[:2] - axis * _rod_length(state, rod) / 2
+        end = centre[:2] - axis * rod_length(state, rod) / 2
         grip = self._grip(state, rod)
         dist = 0.50 + 0.10 * float(self.params[2])
         heading = math.atan2(axis[1], axis[0])
@@ -292,7 +291,7 @@ def _base_for_rod(local: FloatArray, angle: float, spot: FloatArray, yaw: float)
     return np.array([*(spot - offset), heading])
 
 
-class PlaceController(_ShelfController):
+class PlaceController(Dynamic3DController):
     """Slide the held rod onto the goal shelf of a cupboard. Objects: ``(robot, rod, cupboard)``."""
 
     params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
@@ -325,7 +324,7 @@ class PlaceController(_ShelfController):
             raise SkillFailure(f"Place: {cupboard.name} has no goal region")
         box = _Cupboard(ctx, cupboard, region, state)
         opening = box.shelf[:2] + box.depth / 2 * box.front  # centre of the front edge
-        half = _rod_length(state, rod) / 2
+        half = rod_length(state, rod) / 2
         lo, hi = self.depth_range
         wanted = lo + (hi - lo) * float(self.params[0])
         local, angle = _rod_in_base(state, robot, rod)
@@ -370,7 +369,7 @@ class PlaceController(_ShelfController):
                         base_tol=0.02, max_steps=60),
             ]  # fmt: skip
 
-        carry = replace(self._drive(pre, arm, 1.0, 0.01), base_speed=self.carry_speed)
+        carry = replace(self.drive(pre, arm, 1.0, 0.01), base_speed=self.carry_speed)
         steps = math.ceil(carry.max_steps * MAX_DELTA / self.carry_speed[0])
         carry = replace(carry, max_steps=steps)
         return [carry, level, to_shelf_height, slide_in]
@@ -451,4 +450,5 @@ __all__: Sequence[str] = [
     "PlaceController",
     "create_model",
     "nearest_axis_point",
+    "rod_length",
 ]

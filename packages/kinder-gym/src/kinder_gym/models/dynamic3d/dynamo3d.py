@@ -50,8 +50,8 @@ from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.dynamic3d.object_types import ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.dynamic3d.shelf3d import CLOSED
 from kinder_gym.models.dynamic3d.tidybot import (
+    CLOSED,
     HOME,
     MAX_DELTA,
     Dynamic3DController,
@@ -59,6 +59,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     SegmentSource,
     arm_joints,
     base_pose,
+    hand_predicates,
 )
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill
@@ -127,7 +128,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     robot_obj = objects["robot"]
 
     AtGoal = Predicate("AtGoal", (ROBOT_TYPE,))
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
+    HandEmpty = hand_predicates()[0]
     goal_atom = f"on(robot, {GOAL_REGION})"
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:

@@ -56,37 +56,33 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
-from kinder_garden3d.robot.description import forward_kinematics
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.dynamic3d.shelf3d import CLOSED, GRIP_STEPS, READY
 from kinder_gym.models.dynamic3d.tidybot import (
-    HOME,
-    Dynamic3DController,
+    CLOSED,
+    DOWN,
+    GRIP_STEPS,
+    LOADED_TOL,
     Segment,
     SegmentSource,
+    TopDownController,
     arm_joints,
     base_pose,
-    drive_segment,
-    gripper_quat,
-    ik_near,
+    grasp_yaws,
+    hand_predicates,
     line_segments,
+    pick_operator,
     pinch_position,
+    place_operator,
+    top_down_yaw,
 )
-from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.operators import LiftedOperator
+from kinder_gym.motion_planning import FloatArray
 from kinder_gym.skills import Skill, SkillFailure
 
 BOWL = "bowl_0"
 #: Height (m) of the island top (the task files' ``shelf:2`` frame).
 TABLE_Z = 0.46
-#: Height (m) of the pinch point while moving between objects; a held object's bottom then
-#: clears the tallest object (the can, 12 cm) by more than 4 cm.
-TRAVEL_Z = 0.75
-#: Top-down gripper.
-DOWN = math.pi / 2
 #: Radius (m) of the bowl's rim (its bounding box is 12 cm wide).
 BOWL_RADIUS = 0.06
 #: Clearance (m) kept between a placed object's footprint and the bowl or another object.
@@ -95,11 +91,6 @@ MARGIN = 0.005
 RELEASE_GAP = 0.005
 #: Distance (m) from the pinch point within which a lifted object counts as held.
 HOLD_RADIUS = 0.08
-#: Largest arm joint error (rad) at which a move ending with a held object (or at the travel
-#: height) counts as reached: the can's weight leaves about 8 mrad of steady-state error.
-LOADED_TOL = 0.012
-#: Sideways shifts (m) of the base tried, smallest first, when a pose is out of reach.
-BASE_SHIFTS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
 
 
 @dataclass(frozen=True)
@@ -117,20 +108,6 @@ class RearrangeContext:
 def footprint_radius(state: ObjectCentricState, obj: Object) -> float:
     """Radius (m) of a circle around the object's footprint."""
     return 0.5 * math.hypot(state.get(obj, "bb_x"), state.get(obj, "bb_y"))
-
-
-def top_down_yaw(base: FloatArray, arm: FloatArray) -> float:
-    """Heading of a top-down gripper (the one :func:`gripper_quat` takes)."""
-    tf = forward_kinematics((float(base[0]), float(base[1]), float(base[2])), arm)["pinch_site"]
-    across = tf[:3, 1]  # the fingers close along the gripper's y axis
-    return math.atan2(float(across[1]), float(across[0])) - math.pi / 2
-
-
-def grasp_yaws(state: ObjectCentricState, obj: Object, heading: float) -> list[float]:
-    """Gripper headings closing across the object's faces, nearest to ``heading`` first."""
-    yaw = quat_yaw(np.asarray(state[obj][3:7]))
-    cands = [wrap_angle(yaw + k * math.pi / 2) for k in range(4)]
-    return sorted(cands, key=lambda c: abs(wrap_angle(c - heading)))
 
 
 def _spot(
@@ -171,55 +148,6 @@ def _spot_free(
         if np.linalg.norm(spot - p) < footprint_radius(state, other) + r + MARGIN:
             return False
     return True
-
-
-class TopDownController(Dynamic3DController):
-    """Top-down moves of the pinch point with the base fixed (shared with SortClutteredBlocks3D).
-
-    ``travel_z`` is the height (m) of the pinch point between objects; ``grip`` the gripper
-    command while moving there (set by :meth:`plan` of a subclass)."""
-
-    travel_z = TRAVEL_Z
-    grip = 0.0
-
-    def to_travel(self, state: ObjectCentricState, xy: FloatArray, yaw: float) -> Segment:
-        """One joint-space move to the pinch point above ``xy`` at the travel height."""
-        robot = self.robot
-        q = arm_joints(state, robot)
-        near = READY if np.abs(q - HOME).max() < 0.05 else q
-        target = np.array([float(xy[0]), float(xy[1]), self.travel_z])
-        sol = ik_near(target, gripper_quat(yaw, DOWN), base_pose(state, robot), near)
-        return Segment(arm=tuple(sol), gripper=self.grip, arm_tol=0.01, max_steps=80)
-
-    def base_for(
-        self, state: ObjectCentricState, points: Sequence[FloatArray], yaws: Sequence[float]
-    ) -> tuple[FloatArray, float]:
-        """A base pose from which the pinch point reaches every point top-down with one of
-        ``yaws`` (tried in order), and that yaw: the current pose, else the current pose
-        shifted sideways (along the base's own y axis, heading kept) towards the points by
-        the first of :data:`BASE_SHIFTS` that works. SkillFailure when none does."""
-        base = base_pose(state, self.robot)
-        lateral = np.array([-math.sin(base[2]), math.cos(base[2])])
-        side = 1.0 if float((np.mean(points, axis=0)[:2] - base[:2]) @ lateral) >= 0 else -1.0
-        for shift in BASE_SHIFTS:
-            b = base.copy()
-            b[:2] += side * shift * lateral
-            for yaw in yaws:
-                try:
-                    for p in points:
-                        ik_near(p, gripper_quat(yaw, DOWN), b, READY)
-                except SkillFailure:
-                    continue
-                return b, yaw
-        raise SkillFailure(f"{type(self).__name__}: out of top-down reach from beside the base")
-
-    def shift_base(self, state: ObjectCentricState, goal: FloatArray) -> list[SegmentSource]:
-        """The drive to ``goal`` (the arm and gripper held), or nothing when the base is there."""
-        if np.abs(goal - base_pose(state, self.robot)).max() < 1e-9:
-            return []
-        arm = arm_joints(state, self.robot)
-        robot = self.robot
-        return [lambda s: [drive_segment(s, robot, goal, arm, self.grip, 0.01)]]
 
 
 class PickController(TopDownController):
@@ -331,8 +259,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     goal_objs = tuple(o for o in movables if o.name in regions)
     ctx = RearrangeContext(env, robot_obj, objects[BOWL], movables, regions)
 
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    HandEmpty, Holding = hand_predicates()
     Loose = Predicate("Loose", (MOVABLE_TYPE,))
     Placed = Predicate("Placed", (MOVABLE_TYPE,))
 
@@ -354,22 +281,9 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(Loose.ground([o]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
     o = Variable("?obj", MOVABLE_TYPE)
-    pick = LiftedOperator(
-        "Pick",
-        (r, o),
-        frozenset({HandEmpty.lift([r]), Loose.lift([o])}),
-        frozenset({Holding.lift([r, o])}),
-        frozenset({HandEmpty.lift([r]), Loose.lift([o])}),
-    )
-    place = LiftedOperator(
-        "Place",
-        (r, o),
-        frozenset({Holding.lift([r, o])}),
-        frozenset({HandEmpty.lift([r]), Placed.lift([o])}),
-        frozenset({Holding.lift([r, o])}),
-    )
+    pick = pick_operator(o, Loose)
+    place = place_operator(o, Placed)
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
         del state
@@ -391,9 +305,6 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
 __all__: Sequence[str] = [
     "PickController",
     "PlaceController",
-    "TopDownController",
     "create_model",
     "footprint_radius",
-    "grasp_yaws",
-    "top_down_yaw",
 ]

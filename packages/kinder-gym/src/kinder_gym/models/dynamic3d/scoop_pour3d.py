@@ -123,24 +123,30 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.dynamic3d.shelf3d import CLOSED, GRIP_STEPS, READY, _ShelfController, _yaw_of
 from kinder_gym.models.dynamic3d.tidybot import (
+    CLOSED,
+    GRIP_STEPS,
     HOME,
     MAX_DELTA,
+    READY,
+    Dynamic3DController,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
     gripper_quat,
+    hand_predicates,
     ik_near,
     line_segments,
+    pick_operator,
     pinch_position,
+    place_operator,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill
 
 TARGET_REGION = "target_bin_region"
@@ -210,7 +216,7 @@ def abstract_atoms(ctx: ScoopContext, state: ObjectCentricState) -> frozenset[st
     return frozenset(atoms)
 
 
-class GraspScoopController(_ShelfController):
+class GraspScoopController(Dynamic3DController):
     """Grasp the scoop by its handle and lift it. Objects: ``(robot, scoop)``."""
 
     params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
@@ -228,7 +234,7 @@ class GraspScoopController(_ShelfController):
         dist = 0.35 + 0.15 * float(self.params[0])
         side = 0.1 * (2 * float(self.params[1]) - 1)
         goal = np.array([h[0] - dist, h[1] + side, 0.0])
-        axis = _yaw_of(np.asarray(state[scoop][3:7]))
+        axis = quat_yaw(np.asarray(state[scoop][3:7]))
         # The gripper heads from the cup to the handle's end, so that pitching the gripper up
         # (towards the horizontal) tips the cup down, its mouth towards the robot.
         yaw = wrap_angle(axis + math.pi)
@@ -257,7 +263,7 @@ class GraspScoopController(_ShelfController):
         if np.abs(arm_joints(state, robot) - HOME).max() > 0.05:
             plan.append(Segment(arm=tuple(float(v) for v in HOME), arm_tol=0.05, max_steps=80))
         grip = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        plan += [self._drive(goal, HOME, 0.0, 0.01), reach_above, descend, grip, lift]
+        plan += [self.drive(goal, HOME, 0.0, 0.01), reach_above, descend, grip, lift]
         return plan
 
 
@@ -335,7 +341,7 @@ def grasp_shift(
     return np.zeros(2)
 
 
-class PickCubeController(_ShelfController):
+class PickCubeController(Dynamic3DController):
     """Pick a 5 mm cube off the yellow bin's floor. Objects: ``(robot, cube)``."""
 
     params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
@@ -347,7 +353,7 @@ class PickCubeController(_ShelfController):
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         robot, cube = self.objects
         c = np.array(state[cube][:3], dtype=np.float64)  # a copy: it is shifted below
-        yaw = (_yaw_of(np.asarray(state[cube][3:7])) + math.pi / 4) % (math.pi / 2) - math.pi / 4
+        yaw = (quat_yaw(np.asarray(state[cube][3:7])) + math.pi / 4) % (math.pi / 2) - math.pi / 4
         c[:2] += grasp_shift(self.context, state, cube, yaw)
         quat = gripper_quat(yaw, PITCH_DOWN)
         goal = np.array([CUBE_BASE_X, c[1] + 0.1 * (2 * float(self.params[0]) - 1), 0.0])
@@ -377,12 +383,12 @@ class PickCubeController(_ShelfController):
         plan: list[SegmentSource] = []
         b0 = base_pose(state, robot)
         if float(np.abs(b0 - goal).max()) > 0.03:
-            plan.append(self._drive(goal, arm_joints(state, robot), 0.0, 0.02))
+            plan.append(self.drive(goal, arm_joints(state, robot), 0.0, 0.02))
         grip = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
         return [*plan, reach_above, descend, grip, lift]
 
 
-class PlaceCubeController(_ShelfController):
+class PlaceCubeController(Dynamic3DController):
     """Drop the held cube into the green bin. Objects: ``(robot, cube)``."""
 
     params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
@@ -413,7 +419,7 @@ class PlaceCubeController(_ShelfController):
                 )
             )  # fmt: skip
 
-        drive = self._drive(goal, arm_joints(state, robot), 1.0, 0.03)
+        drive = self.drive(goal, arm_joints(state, robot), 1.0, 0.03)
         steps = math.ceil(drive.max_steps * MAX_DELTA / CUBE_CARRY_SPEED[0])
         drive = replace(drive, base_speed=CUBE_CARRY_SPEED, max_steps=steps)
         release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
@@ -424,8 +430,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The ScoopPour3D planning model (cube by cube with the gripper; see the module docstring)."""
     ctx = scoop_context(env)
     robot = ctx.robot
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    HandEmpty, Holding = hand_predicates()
     InSource = Predicate("InSource", (MOVABLE_TYPE,))
     InTarget = Predicate("InTarget", (MOVABLE_TYPE,))
 
@@ -443,22 +448,9 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(InSource.ground([c]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
     c = Variable("?cube", MOVABLE_TYPE)
-    pick = LiftedOperator(
-        "Pick",
-        (r, c),
-        frozenset({HandEmpty.lift([r]), InSource.lift([c])}),
-        frozenset({Holding.lift([r, c])}),
-        frozenset({HandEmpty.lift([r]), InSource.lift([c])}),
-    )
-    place = LiftedOperator(
-        "Place",
-        (r, c),
-        frozenset({Holding.lift([r, c])}),
-        frozenset({HandEmpty.lift([r]), InTarget.lift([c])}),
-        frozenset({Holding.lift([r, c])}),
-    )
+    pick = pick_operator(c, InSource)
+    place = place_operator(c, InTarget)
 
     def goal(s: ObjectCentricState) -> frozenset[GroundAtom]:
         del s

@@ -76,37 +76,37 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.dynamic3d.object_types import FIXTURE_TYPE, MOVABLE_TYPE, ROBOT_TYPE
-from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.concepts import GroundAtom
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
+    CHASSIS_RADIUS,
+    CLOSED,
+    CUBE_CLEARANCE,
+    GRASP_Z,
+    GRIP_STEPS,
+    PITCH,
+    READY,
+    RELEASE,
     Dynamic3DController,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
     drive_reach_segment,
-    drive_segment,
     gripper_quat,
     line_segments,
     nearest_ik,
+    pick_place_domain,
     pinch_position,
+    segment_point_distance,
+    segment_rect_distance,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 GOAL_REGION = "cupboard_1_goal_region"
-#: Gripper closure above which the hand counts as closed.
-CLOSED = 0.2
-#: Radius (m) of a circle around the 0.4 m square chassis, plus a margin.
-CHASSIS_RADIUS = 0.3
-#: Distance (m) the base centre keeps from other cubes on the floor while it drives. The chassis'
-#: underside is 2 cm above the floor, the height of a cube, so it passes over them; measured on
-#: Shelf3D-o2/o4, keeping the whole chassis clear only made most standoffs unreachable.
-CUBE_CLEARANCE = 0.05
-#: Pitch of the gripper below the horizontal while grasping and carrying (rad).
-PITCH = math.radians(45.0)
 #: Height (m) of the pinch point above the shelf top while carrying and placing.
 CARRY_ABOVE_SHELF = 0.04
 #: Largest base step (m, rad per action) while the hand rises with a cube: at the env's full
@@ -114,7 +114,6 @@ CARRY_ABOVE_SHELF = 0.04
 CARRY_SPEED = (0.06, 0.06)
 #: Distance (m) from the cupboard front at which the pinch point waits before driving in.
 PRE_PLACE = 0.15
-GRIP_STEPS = 8
 #: Half-range (m) of the place spot along the shelf, from its centre.
 LATERAL = 0.22
 #: Distance (m) along the shelf kept between a place spot and the cubes already there: the
@@ -122,42 +121,13 @@ LATERAL = 0.22
 SPACING = 0.05
 #: Number of evenly spaced place spots the sampler chooses from (6.3 cm apart).
 SLOTS = 8
-#: Gripper command that releases a held cube: the pads 4.7 cm apart.
-RELEASE = 0.45
 #: Steps the hand takes to open fully from :data:`RELEASE`.
 OPEN_STEPS = 4
-#: Height (m) of the pinch point when the fingers close on a cube lying on the floor.
-GRASP_Z = 0.02
 #: Height (m) of the pinch point up to which a picked cube is lifted straight up.
 LIFT_CLEAR = 0.07
 #: Sideways offsets (m) of a detour's waypoint from the middle of a blocked straight base path
 #: (controllers with ``detours`` set).
 DETOURS = (0.2, -0.2, 0.4, -0.4)
-#: Arm joints from which IK finds the forward-reaching, elbow-up grasp configurations.
-READY = np.array([0.0, 0.26, math.pi, -2.27, 0.0, 0.96, math.pi / 2])
-
-
-def _yaw_of(q: FloatArray) -> float:
-    """Yaw of a (w, x, y, z) quaternion."""
-    w, x, y, z = (float(v) for v in q)
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-
-
-def _segment_point_distance(a: FloatArray, b: FloatArray, p: FloatArray) -> float:
-    ab = b - a
-    t = 0.0 if not ab.any() else float(np.clip(np.dot(p - a, ab) / np.dot(ab, ab), 0.0, 1.0))
-    return float(np.linalg.norm(a + t * ab - p))
-
-
-def _segment_rect_distance(
-    a: FloatArray, b: FloatArray, centre: FloatArray, axes: FloatArray, half: FloatArray
-) -> float:
-    """Distance between a segment and a rotated rectangle (sampled along the segment)."""
-    n = max(2, math.ceil(float(np.linalg.norm(b - a)) / 0.02) + 1)
-    pts = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
-    local = (pts - centre) @ axes  # columns of axes: the rectangle's unit axes
-    excess = np.maximum(np.abs(local) - half, 0.0)
-    return float(np.min(np.linalg.norm(excess, axis=1)))
 
 
 @dataclass(frozen=True)
@@ -193,7 +163,7 @@ class _ShelfGeometry:
         self.half = np.array([self.length / 2, self.depth / 2])
 
     def clear_of_cupboard(self, a: FloatArray, b: FloatArray, margin: float) -> bool:
-        d = _segment_rect_distance(a, b, self.centre, self.axes, self.half)
+        d = segment_rect_distance(a, b, self.centre, self.axes, self.half)
         return d > CHASSIS_RADIUS + margin
 
 
@@ -212,7 +182,7 @@ def _path_clear(
 ) -> bool:
     if not geometry.clear_of_cupboard(a, b, 0.05):
         return False
-    return all(_segment_point_distance(a, b, p) > CUBE_CLEARANCE for p in obstacles)
+    return all(segment_point_distance(a, b, p) > CUBE_CLEARANCE for p in obstacles)
 
 
 def _route(
@@ -257,24 +227,11 @@ def _spot_free(
     return True
 
 
-class _ShelfController(Dynamic3DController):
+class PickController(Dynamic3DController):
+    """Pick a cube off the floor. Objects: ``(robot, cube)``."""
+
     #: Whether a blocked straight base path may be replaced by a detour (:func:`_route`).
     detours = False
-
-    def _drive(
-        self,
-        goal: FloatArray,
-        arm: FloatArray,
-        gripper: float,
-        tol: float,
-    ) -> Segment:
-        state = self.state
-        assert state is not None
-        return drive_segment(state, self.robot, goal, arm, gripper, tol)
-
-
-class PickController(_ShelfController):
-    """Pick a cube off the floor. Objects: ``(robot, cube)``."""
 
     params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
     params_doc = (
@@ -296,7 +253,7 @@ class PickController(_ShelfController):
         # Approach roughly facing the cupboard: the carry to it then needs little turning.
         facing = math.atan2(-geometry.front[1], -geometry.front[0])
         wanted = facing + (float(self.params[1]) - 0.5) * math.pi / 2
-        cube_yaw = _yaw_of(np.asarray(state[cube][3:7]))
+        cube_yaw = quat_yaw(np.asarray(state[cube][3:7]))
         k = round((wanted - cube_yaw) / (math.pi / 2))
         heading = wrap_angle(cube_yaw + k * math.pi / 2)
         direction = np.array([math.cos(heading), math.sin(heading)])
@@ -329,8 +286,11 @@ class PickController(_ShelfController):
         return [*legs, drive, descend, close, lift]
 
 
-class PlaceController(_ShelfController):
+class PlaceController(Dynamic3DController):
     """Place the held cube on shelf 2. Objects: ``(robot, cube, cupboard)``."""
+
+    #: Whether a blocked straight base path may be replaced by a detour (:func:`_route`).
+    detours = False
 
     params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
     params_doc = (
@@ -431,36 +391,6 @@ class PlaceController(_ShelfController):
         ]  # fmt: skip
 
 
-def pick_place_domain(
-    item: str,
-) -> tuple[tuple[Predicate, Predicate, Predicate, Predicate], LiftedOperator, LiftedOperator]:
-    """The predicates ``(HandEmpty, Holding, OnGround, OnShelf)`` and the ``Pick(?robot, item)``
-    and ``Place(?robot, item, ?cupboard)`` operators of a floor-to-cupboard model (Shelf3D,
-    ConstrainedCupboard3D); ``item`` names the object variable (``"?cube"``)."""
-    hand_empty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
-    on_ground = Predicate("OnGround", (MOVABLE_TYPE,))
-    on_shelf = Predicate("OnShelf", (MOVABLE_TYPE, FIXTURE_TYPE))
-    r = Variable("?robot", ROBOT_TYPE)
-    c = Variable(item, MOVABLE_TYPE)
-    f = Variable("?cupboard", FIXTURE_TYPE)
-    pick = LiftedOperator(
-        "Pick",
-        (r, c),
-        frozenset({hand_empty.lift([r]), on_ground.lift([c])}),
-        frozenset({holding.lift([r, c])}),
-        frozenset({hand_empty.lift([r]), on_ground.lift([c])}),
-    )
-    place = LiftedOperator(
-        "Place",
-        (r, c, f),
-        frozenset({holding.lift([r, c])}),
-        frozenset({hand_empty.lift([r]), on_shelf.lift([c, f])}),
-        frozenset({holding.lift([r, c])}),
-    )
-    return (hand_empty, holding, on_ground, on_shelf), pick, place
-
-
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The Shelf3D planning model (any number of cubes)."""
     robot_obj: Object = env.objects["robot"]  # type: ignore[attr-defined]
@@ -512,4 +442,4 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     )
 
 
-__all__: Sequence[str] = ["PickController", "PlaceController", "create_model", "pick_place_domain"]
+__all__: Sequence[str] = ["PickController", "PlaceController", "create_model"]

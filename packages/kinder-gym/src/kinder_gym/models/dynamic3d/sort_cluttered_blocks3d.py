@@ -20,7 +20,7 @@ and ``Drop(?robot, ?cube)`` (pre Holding; add HandEmpty, Sorted; delete Holding)
 cube Sorted, and HandEmpty.
 
 Skills (targets tracked closed-loop by :mod:`kinder_gym.models.dynamic3d.tidybot`; the top-down
-moves are Rearrange3D's :class:`~kinder_gym.models.dynamic3d.rearrange3d.TopDownController`):
+moves are the robot's :class:`~kinder_gym.models.dynamic3d.tidybot.TopDownController`):
 
 * Pick: the first time, retract the arm and drive the base beside the table's long side,
   facing it (two straight legs around the table corner), from where the pile and every
@@ -73,26 +73,28 @@ from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d import sort_cupboard3d
-from kinder_gym.models.dynamic3d.rearrange3d import (
-    DOWN,
-    LOADED_TOL,
-    TopDownController,
-    grasp_yaws,
-    top_down_yaw,
-)
-from kinder_gym.models.dynamic3d.shelf3d import CLOSED, GRIP_STEPS, RELEASE
 from kinder_gym.models.dynamic3d.tidybot import (
+    CLOSED,
+    DOWN,
+    GRIP_STEPS,
     HOME,
+    LOADED_TOL,
+    RELEASE,
     Segment,
     SegmentSource,
+    TopDownController,
     arm_joints,
     base_pose,
     drive_segment,
+    grasp_yaws,
+    hand_predicates,
     line_segments,
+    pick_operator,
     pinch_position,
+    place_operator,
+    top_down_yaw,
 )
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 TABLE = "table_1"
@@ -339,8 +341,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     ctx = SortContext(env, robot_obj, objects[TABLE], regions, containers)
     table_top = float(env.task.fixtures[TABLE].params["height"])  # type: ignore[attr-defined]
 
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    HandEmpty, Holding = hand_predicates()
     Loose = Predicate("Loose", (MOVABLE_TYPE,))
     Sorted = Predicate("Sorted", (MOVABLE_TYPE,))
 
@@ -362,22 +363,9 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(Loose.ground([c]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
     o = Variable("?cube", MOVABLE_TYPE)
-    pick = LiftedOperator(
-        "Pick",
-        (r, o),
-        frozenset({HandEmpty.lift([r]), Loose.lift([o])}),
-        frozenset({Holding.lift([r, o])}),
-        frozenset({HandEmpty.lift([r]), Loose.lift([o])}),
-    )
-    drop = LiftedOperator(
-        "Drop",
-        (r, o),
-        frozenset({Holding.lift([r, o])}),
-        frozenset({HandEmpty.lift([r]), Sorted.lift([o])}),
-        frozenset({Holding.lift([r, o])}),
-    )
+    pick = pick_operator(o, Loose)
+    drop = place_operator(o, Sorted, "Drop")
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
         del state

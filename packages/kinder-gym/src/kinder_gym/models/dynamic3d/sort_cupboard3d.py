@@ -89,9 +89,11 @@ from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d import constrained_cupboard3d as cupboard3d
 from kinder_gym.models.dynamic3d import shelf3d
 from kinder_gym.models.dynamic3d.tidybot import (
+    CLOSED,
     SegmentSource,
     arm_joints,
     base_pose,
+    hand_predicates,
     pinch_position,
 )
 from kinder_gym.operators import LiftedOperator
@@ -144,7 +146,7 @@ class RodPickController(cupboard3d.PickController):
     )
 
     def _grip(self, state: ObjectCentricState, rod: Object) -> float:
-        half = cupboard3d._rod_length(state, rod) / 2
+        half = cupboard3d.rod_length(state, rod) / 2
         return half - 0.02 + 0.04 * float(self.params[1])
 
 
@@ -184,8 +186,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     cube_ctx = shelf3d.ShelfContext(env, robot_obj, cupboard, cubes, regions)
     rod_ctx = RodContext(env, robot_obj, (cupboard,), rods, {}, {r: regions[r.name] for r in rods})
 
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    HandEmpty, Holding = hand_predicates()
     OnGround = Predicate("OnGround", (MOVABLE_TYPE,))
     OnShelf = Predicate("OnShelf", (MOVABLE_TYPE, FIXTURE_TYPE))
     IsCube = Predicate("IsCube", (MOVABLE_TYPE,))
@@ -195,7 +196,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
         atoms: set[GroundAtom] = set(static)
-        closed = state.get(robot_obj, "pos_gripper") >= shelf3d.CLOSED
+        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
         if not closed:
             atoms.add(HandEmpty.ground([robot_obj]))
         pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))

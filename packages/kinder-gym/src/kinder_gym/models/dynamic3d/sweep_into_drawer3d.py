@@ -145,6 +145,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     SegmentSource,
     arm_joints,
     base_pose,
+    hand_predicates,
     ik_near,
 )
 from kinder_gym.motion_planning import FloatArray
@@ -630,8 +631,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
 
     DrawerOpen = Predicate("DrawerOpen", (DRAWER_TYPE,))
     DrawerClosed = Predicate("DrawerClosed", (DRAWER_TYPE,))
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    HandEmpty, Holding = hand_predicates()
     InDrawer = Predicate("InDrawer", (MOVABLE_TYPE,))
     Lost = Predicate("Lost", (MOVABLE_TYPE,))
 

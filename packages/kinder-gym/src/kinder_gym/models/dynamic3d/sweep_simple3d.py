@@ -87,32 +87,32 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.dynamic3d.shelf3d import (
+from kinder_gym.models.dynamic3d.tidybot import (
     CLOSED,
     GRIP_STEPS,
-    PITCH,
-    READY,
-    _segment_rect_distance,
-    _ShelfController,
-    _yaw_of,
-)
-from kinder_gym.models.dynamic3d.tidybot import (
     HOME,
     MAX_DELTA,
+    PITCH,
+    READY,
+    Dynamic3DController,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
     gripper_quat,
+    hand_predicates,
     ik_near,
     line_segments,
+    pick_operator,
     pinch_position,
+    place_operator,
+    segment_rect_distance,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 GOAL_REGION = "sweep_region"
@@ -222,10 +222,10 @@ def _path_ok(
         return False
     wf = state[ctx.wiper]
     centre = np.asarray(wf[:2], dtype=np.float64)
-    axes = _yaw_axes(_yaw_of(np.asarray(wf[3:7])))
+    axes = _yaw_axes(quat_yaw(np.asarray(wf[3:7])))
     # A base that stands closer than that (the wiper was pushed toward it) may still drive away.
-    start = _segment_rect_distance(a, a, centre, axes, WIPER_HALF) - 1e-9
-    return _segment_rect_distance(a, b, centre, axes, WIPER_HALF) >= min(PASS_CLEARANCE, start)
+    start = segment_rect_distance(a, a, centre, axes, WIPER_HALF) - 1e-9
+    return segment_rect_distance(a, b, centre, axes, WIPER_HALF) >= min(PASS_CLEARANCE, start)
 
 
 def _rotated(offset: FloatArray, yaw: FloatArray | float) -> FloatArray:
@@ -271,7 +271,7 @@ def _route(
     raise SkillFailure("the base has no clear path to its goal")
 
 
-class _Controller(_ShelfController):
+class _Controller(Dynamic3DController):
     """Shared: routes, and parameter samples whose standoff and route are clear."""
 
     @abc.abstractmethod
@@ -353,7 +353,7 @@ class _Controller(_ShelfController):
 
         def leg(s: ObjectCentricState) -> list[Segment]:
             self.state = s
-            seg = self._drive(pose, arm, gripper, tol)
+            seg = self.drive(pose, arm, gripper, tol)
             if gripper > 0.5:  # carrying: slower, and more steps for it
                 seg = replace(seg, base_speed=CARRY_SPEED, max_steps=2 * seg.max_steps)
             return [seg]
@@ -384,7 +384,7 @@ class PickController(_Controller):
             raise SkillFailure(f"Pick: {block.name} is not on the floor")
         dist = 0.50 + 0.10 * float(params[0])
         c = np.array([state.get(block, "x"), state.get(block, "y")])
-        yaw = _yaw_of(np.asarray(state[block][3:7]))
+        yaw = quat_yaw(np.asarray(state[block][3:7]))
         k = round((2 * math.pi * float(params[1]) - yaw) / (math.pi / 2))
         heading = yaw + k * math.pi / 2
         direction = np.array([math.cos(heading), math.sin(heading)])
@@ -488,8 +488,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     ctx = SweepSimpleContext(env, robot, objects[WIPER], blocks, (x0, y0, x1, y1))
     goal_keys = {b: f"on({b.name}, {GOAL_REGION})" for b in blocks}
 
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    HandEmpty, Holding = hand_predicates()
     OnFloor = Predicate("OnFloor", (MOVABLE_TYPE,))
     InArea = Predicate("InArea", (MOVABLE_TYPE,))
 
@@ -518,22 +517,9 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(OnFloor.ground([b]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
     b = Variable("?block", MOVABLE_TYPE)
-    pick = LiftedOperator(
-        "Pick",
-        (r, b),
-        frozenset({HandEmpty.lift([r]), OnFloor.lift([b])}),
-        frozenset({Holding.lift([r, b])}),
-        frozenset({HandEmpty.lift([r]), OnFloor.lift([b])}),
-    )
-    place = LiftedOperator(
-        "Place",
-        (r, b),
-        frozenset({Holding.lift([r, b])}),
-        frozenset({HandEmpty.lift([r]), InArea.lift([b])}),
-        frozenset({Holding.lift([r, b])}),
-    )
+    pick = pick_operator(b, OnFloor)
+    place = place_operator(b, InArea)
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
         del state

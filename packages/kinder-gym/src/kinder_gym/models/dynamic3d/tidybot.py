@@ -13,6 +13,12 @@ Segments may be produced lazily (a callable of the state at which they start), b
 targets depend on where the base actually stopped. Kinematics: pure-numpy forward kinematics of
 the robot description and mink IK (:func:`ik_near`, which prefers the solution nearest the current
 joints). Imports kinder_garden3d (the ``[3d]`` extra).
+
+This is the mobile manipulator's base module, which every Dynamic3D planning model imports (never
+a sibling model): the robot's constants (gripper closure, grasp pitch, ready pose, chassis size),
+base-path geometry (:func:`segment_point_distance`, :func:`segment_rect_distance`), the drive
+(:meth:`Dynamic3DController.drive`), the top-down moves with the base fixed
+(:class:`TopDownController`) and the hand's predicates (:func:`hand_predicates`).
 """
 
 from __future__ import annotations
@@ -25,7 +31,9 @@ from typing import TypeAlias
 
 import numpy as np
 
-from kinder_core import Object, ObjectCentricState
+from kinder_core import Object, ObjectCentricState, Type
+from kinder_garden3d.dynamic3d.geometry import quat_yaw
+from kinder_garden3d.dynamic3d.object_types import FIXTURE_TYPE, MOVABLE_TYPE, ROBOT_TYPE
 from kinder_garden3d.robot.description import (
     RETRACT,
     forward_kinematics,
@@ -33,7 +41,9 @@ from kinder_garden3d.robot.description import (
     robot_description,
 )
 from kinder_garden3d.robot.ik import InverseKinematics
+from kinder_gym.concepts import Predicate, Variable
 from kinder_gym.motion_planning import FloatArray, wrap_angle
+from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Controller, SkillFailure
 
 #: The retracted arm (the env's start pose), carried while the base drives.
@@ -48,6 +58,35 @@ ARM_SPEED = 0.05
 _LOW, _HIGH = robot_description().arm_joint_limits
 #: The continuous arm joints (no limits): their errors are wrapped the short way round.
 CONTINUOUS = ~np.isfinite(_LOW)
+#: Gripper closure above which the hand counts as closed.
+CLOSED = 0.2
+#: Steps a segment that closes or opens the hand lasts at least.
+GRIP_STEPS = 8
+#: Gripper command that releases a held cube: the pads 4.7 cm apart.
+RELEASE = 0.45
+#: Radius (m) of a circle around the 0.4 m square chassis, plus a margin.
+CHASSIS_RADIUS = 0.3
+#: Distance (m) the base centre keeps from cubes on the floor while it drives. The chassis'
+#: underside is 2 cm above the floor, the height of a cube, so it passes over them; measured on
+#: Shelf3D-o2/o4, keeping the whole chassis clear only made most standoffs unreachable.
+CUBE_CLEARANCE = 0.05
+#: Height (m) of the pinch point when the fingers close on a cube lying on the floor.
+GRASP_Z = 0.02
+#: Pitch of the gripper below the horizontal while grasping and carrying from the side (rad).
+PITCH = math.radians(45.0)
+#: Pitch of a top-down gripper (rad).
+DOWN = math.pi / 2
+#: Arm joints from which IK finds the forward-reaching, elbow-up grasp configurations.
+READY = np.array([0.0, 0.26, math.pi, -2.27, 0.0, 0.96, math.pi / 2])
+#: Height (m) of the pinch point while :class:`TopDownController` moves between objects on the
+#: kitchen island; a held object's bottom then clears the tallest object of Rearrange3D (the
+#: can, 12 cm) by more than 4 cm.
+TRAVEL_Z = 0.75
+#: Largest arm joint error (rad) at which a move ending with a held object (or at the travel
+#: height) counts as reached: the can's weight leaves about 8 mrad of steady-state error.
+LOADED_TOL = 0.012
+#: Sideways shifts (m) of the base tried, smallest first, when a top-down pose is out of reach.
+BASE_SHIFTS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
 
 
 def base_pose(state: ObjectCentricState, robot: Object) -> FloatArray:
@@ -64,6 +103,96 @@ def pinch_position(base: FloatArray, arm: FloatArray) -> FloatArray:
     """World position of the point between the finger pads for a configuration."""
     tf = forward_kinematics((float(base[0]), float(base[1]), float(base[2])), arm)["pinch_site"]
     return np.asarray(tf[:3, 3], dtype=np.float64)
+
+
+def top_down_yaw(base: FloatArray, arm: FloatArray) -> float:
+    """Heading of a top-down gripper (the one :func:`gripper_quat` takes)."""
+    tf = forward_kinematics((float(base[0]), float(base[1]), float(base[2])), arm)["pinch_site"]
+    across = tf[:3, 1]  # the fingers close along the gripper's y axis
+    return math.atan2(float(across[1]), float(across[0])) - math.pi / 2
+
+
+def grasp_yaws(state: ObjectCentricState, obj: Object, heading: float) -> list[float]:
+    """Gripper headings closing across the object's faces, nearest to ``heading`` first."""
+    yaw = quat_yaw(np.asarray(state[obj][3:7]))
+    cands = [wrap_angle(yaw + k * math.pi / 2) for k in range(4)]
+    return sorted(cands, key=lambda c: abs(wrap_angle(c - heading)))
+
+
+def segment_point_distance(a: FloatArray, b: FloatArray, p: FloatArray) -> float:
+    """Distance between the segment from ``a`` to ``b`` and the point ``p``."""
+    ab = b - a
+    t = 0.0 if not ab.any() else float(np.clip(np.dot(p - a, ab) / np.dot(ab, ab), 0.0, 1.0))
+    return float(np.linalg.norm(a + t * ab - p))
+
+
+def segment_rect_distance(
+    a: FloatArray, b: FloatArray, centre: FloatArray, axes: FloatArray, half: FloatArray
+) -> float:
+    """Distance between a segment and a rotated rectangle (sampled along the segment every
+    2 cm); ``axes``' columns are the rectangle's unit axes, ``half`` its half-extents."""
+    n = max(2, math.ceil(float(np.linalg.norm(b - a)) / 0.02) + 1)
+    pts = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+    local = (pts - centre) @ axes
+    excess = np.maximum(np.abs(local) - half, 0.0)
+    return float(np.min(np.linalg.norm(excess, axis=1)))
+
+
+def hand_predicates(held: Type = MOVABLE_TYPE) -> tuple[Predicate, Predicate]:
+    """``HandEmpty(robot)`` and ``Holding(robot, held)``, the hand's predicates of every
+    Dynamic3D model (each model's abstraction decides when they hold)."""
+    return Predicate("HandEmpty", (ROBOT_TYPE,)), Predicate("Holding", (ROBOT_TYPE, held))
+
+
+def pick_operator(item: Variable, source: Predicate) -> LiftedOperator:
+    """``Pick(?robot, item)``: with the hand empty and ``source(item)``, hold ``item``
+    (``HandEmpty`` and ``source(item)`` deleted)."""
+    hand_empty, holding = hand_predicates()
+    r = Variable("?robot", ROBOT_TYPE)
+    return LiftedOperator(
+        "Pick",
+        (r, item),
+        frozenset({hand_empty.lift([r]), source.lift([item])}),
+        frozenset({holding.lift([r, item])}),
+        frozenset({hand_empty.lift([r]), source.lift([item])}),
+    )
+
+
+def place_operator(item: Variable, target: Predicate, name: str = "Place") -> LiftedOperator:
+    """``name(?robot, item)``: holding ``item``, let go of it so that ``target(item)`` holds
+    (``HandEmpty`` and ``target(item)`` added, ``Holding`` deleted)."""
+    hand_empty, holding = hand_predicates()
+    r = Variable("?robot", ROBOT_TYPE)
+    return LiftedOperator(
+        name,
+        (r, item),
+        frozenset({holding.lift([r, item])}),
+        frozenset({hand_empty.lift([r]), target.lift([item])}),
+        frozenset({holding.lift([r, item])}),
+    )
+
+
+def pick_place_domain(
+    item: str,
+) -> tuple[tuple[Predicate, Predicate, Predicate, Predicate], LiftedOperator, LiftedOperator]:
+    """The predicates ``(HandEmpty, Holding, OnGround, OnShelf)`` and the ``Pick(?robot, item)``
+    and ``Place(?robot, item, ?cupboard)`` operators of a floor-to-cupboard model (Shelf3D,
+    ConstrainedCupboard3D); ``item`` names the object variable (``"?cube"``)."""
+    hand_empty, holding = hand_predicates()
+    on_ground = Predicate("OnGround", (MOVABLE_TYPE,))
+    on_shelf = Predicate("OnShelf", (MOVABLE_TYPE, FIXTURE_TYPE))
+    r = Variable("?robot", ROBOT_TYPE)
+    c = Variable(item, MOVABLE_TYPE)
+    f = Variable("?cupboard", FIXTURE_TYPE)
+    pick = pick_operator(c, on_ground)
+    place = LiftedOperator(
+        "Place",
+        (r, c, f),
+        frozenset({holding.lift([r, c])}),
+        frozenset({hand_empty.lift([r]), on_shelf.lift([c, f])}),
+        frozenset({holding.lift([r, c])}),
+    )
+    return (hand_empty, holding, on_ground, on_shelf), pick, place
 
 
 def gripper_quat(yaw: float, pitch: float) -> FloatArray:
@@ -211,20 +340,22 @@ def drive_segment(
     arm: FloatArray,
     gripper: float,
     tol: float,
+    speed: tuple[float, float] = (MAX_DELTA, MAX_DELTA),
 ) -> Segment:
-    """A segment driving the base to ``goal`` ``(x, y, yaw)`` with the arm held at ``arm``,
-    with a step budget of the larger of the distance and the turn at full speed, plus 40."""
+    """A segment driving the base to ``goal`` ``(x, y, yaw)`` with the arm held at ``arm``, at
+    most ``speed`` (m, rad) per action, with a step budget of the larger of the distance and the
+    turn at that speed, plus 40."""
     start = base_pose(state, robot)
     dist = float(np.linalg.norm(goal[:2] - start[:2]))
     turn = abs(wrap_angle(float(goal[2] - start[2])))
-    steps = math.ceil(max(dist, turn) / MAX_DELTA) + 40
     return Segment(
         base=(float(goal[0]), float(goal[1]), float(goal[2])),
         arm=tuple(float(v) for v in arm),
         gripper=gripper,
         arm_tol=0.05,
         base_tol=tol,
-        max_steps=steps,
+        max_steps=math.ceil(max(dist / speed[0], turn / speed[1])) + 40,
+        base_speed=speed,
     )
 
 
@@ -266,6 +397,20 @@ class Dynamic3DController(Controller):
     @abc.abstractmethod
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         """The segments from ``state`` (raise SkillFailure when the skill cannot run)."""
+
+    def drive(
+        self,
+        goal: FloatArray,
+        arm: FloatArray,
+        gripper: float,
+        tol: float,
+        speed: tuple[float, float] = (MAX_DELTA, MAX_DELTA),
+    ) -> Segment:
+        """:func:`drive_segment` from the state the controller last saw (in :meth:`plan`, the
+        state the skill starts in)."""
+        state = self.state
+        assert state is not None
+        return drive_segment(state, self.robot, goal, arm, gripper, tol, speed)
 
     def _advance(self, state: ObjectCentricState) -> None:
         """Pop segments until one is not yet reached (expanding lazy ones)."""
@@ -333,21 +478,91 @@ class Dynamic3DController(Controller):
         return self._done
 
 
+class TopDownController(Dynamic3DController):
+    """Top-down moves of the pinch point with the base fixed (Rearrange3D, SortClutteredBlocks3D).
+
+    ``travel_z`` is the height (m) of the pinch point between objects; ``grip`` the gripper
+    command while moving there (set by :meth:`plan` of a subclass)."""
+
+    travel_z = TRAVEL_Z
+    grip = 0.0
+
+    def to_travel(self, state: ObjectCentricState, xy: FloatArray, yaw: float) -> Segment:
+        """One joint-space move to the pinch point above ``xy`` at the travel height."""
+        robot = self.robot
+        q = arm_joints(state, robot)
+        near = READY if np.abs(q - HOME).max() < 0.05 else q
+        target = np.array([float(xy[0]), float(xy[1]), self.travel_z])
+        sol = ik_near(target, gripper_quat(yaw, DOWN), base_pose(state, robot), near)
+        return Segment(arm=tuple(sol), gripper=self.grip, arm_tol=0.01, max_steps=80)
+
+    def base_for(
+        self, state: ObjectCentricState, points: Sequence[FloatArray], yaws: Sequence[float]
+    ) -> tuple[FloatArray, float]:
+        """A base pose from which the pinch point reaches every point top-down with one of
+        ``yaws`` (tried in order), and that yaw: the current pose, else the current pose
+        shifted sideways (along the base's own y axis, heading kept) towards the points by
+        the first of :data:`BASE_SHIFTS` that works. SkillFailure when none does."""
+        base = base_pose(state, self.robot)
+        lateral = np.array([-math.sin(base[2]), math.cos(base[2])])
+        side = 1.0 if float((np.mean(points, axis=0)[:2] - base[:2]) @ lateral) >= 0 else -1.0
+        for shift in BASE_SHIFTS:
+            b = base.copy()
+            b[:2] += side * shift * lateral
+            for yaw in yaws:
+                try:
+                    for p in points:
+                        ik_near(p, gripper_quat(yaw, DOWN), b, READY)
+                except SkillFailure:
+                    continue
+                return b, yaw
+        raise SkillFailure(f"{type(self).__name__}: out of top-down reach from beside the base")
+
+    def shift_base(self, state: ObjectCentricState, goal: FloatArray) -> list[SegmentSource]:
+        """The drive to ``goal`` (the arm and gripper held), or nothing when the base is there."""
+        if np.abs(goal - base_pose(state, self.robot)).max() < 1e-9:
+            return []
+        arm = arm_joints(state, self.robot)
+        robot = self.robot
+        return [lambda s: [drive_segment(s, robot, goal, arm, self.grip, 0.01)]]
+
+
 __all__ = [
     "ARM_FEATURES",
     "ARM_SPEED",
     "BASE_FEATURES",
+    "BASE_SHIFTS",
+    "CHASSIS_RADIUS",
+    "CLOSED",
+    "CUBE_CLEARANCE",
+    "DOWN",
+    "GRASP_Z",
+    "GRIP_STEPS",
     "HOME",
+    "LOADED_TOL",
+    "PITCH",
+    "READY",
+    "RELEASE",
+    "TRAVEL_Z",
     "Dynamic3DController",
     "Segment",
+    "TopDownController",
     "arm_joints",
     "arm_turn",
     "base_pose",
     "drive_reach_segment",
     "drive_segment",
+    "grasp_yaws",
     "gripper_quat",
+    "hand_predicates",
     "ik_near",
     "line_segments",
     "nearest_ik",
+    "pick_operator",
+    "pick_place_domain",
     "pinch_position",
+    "place_operator",
+    "segment_point_distance",
+    "segment_rect_distance",
+    "top_down_yaw",
 ]

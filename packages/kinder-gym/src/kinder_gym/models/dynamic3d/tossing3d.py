@@ -84,33 +84,31 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.dynamic3d.geometry import quat_to_matrix
+from kinder_garden3d.dynamic3d.geometry import quat_to_matrix, quat_yaw
 from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.dynamic3d.shelf3d import (
+from kinder_gym.models.dynamic3d.tidybot import (
     CHASSIS_RADIUS,
     CLOSED,
     GRASP_Z,
     GRIP_STEPS,
+    HOME,
     PITCH,
     READY,
-    _segment_point_distance,
-    _segment_rect_distance,
-    _yaw_of,
-)
-from kinder_gym.models.dynamic3d.tidybot import (
-    HOME,
-    MAX_DELTA,
     Dynamic3DController,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
     gripper_quat,
+    hand_predicates,
     ik_near,
     line_segments,
+    pick_operator,
     pinch_position,
+    segment_point_distance,
+    segment_rect_distance,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
 from kinder_gym.operators import GroundOperator, LiftedOperator
@@ -172,10 +170,10 @@ def _path_clear(
     of the bin and of the cubes on the floor other than ``skip``."""
     if not _in_room(b):
         return False
-    yaw = _yaw_of(np.asarray(state[ctx.bin][3:7]))
+    yaw = quat_yaw(np.asarray(state[ctx.bin][3:7]))
     axes = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
     half = np.array([state.get(ctx.bin, "bb_x"), state.get(ctx.bin, "bb_y")]) / 2
-    if _segment_rect_distance(a, b, _xy(state, ctx.bin), axes, half) < CHASSIS_RADIUS + 0.03:
+    if segment_rect_distance(a, b, _xy(state, ctx.bin), axes, half) < CHASSIS_RADIUS + 0.03:
         return False
     for cube in ctx.cubes:
         if cube == skip or state.get(cube, "z") > 0.05:
@@ -183,37 +181,12 @@ def _path_clear(
         pos = _xy(state, cube)
         if np.linalg.norm(pos - _xy(state, ctx.bin)) < 0.2:  # in the bin
             continue
-        if _segment_point_distance(a, b, pos) < CUBE_CLEARANCE:
+        if segment_point_distance(a, b, pos) < CUBE_CLEARANCE:
             return False
     return True
 
 
 class _TossController(Dynamic3DController):
-    def drive(
-        self,
-        goal: FloatArray,
-        arm: FloatArray,
-        gripper: float,
-        tol: float,
-        speed: tuple[float, float] = (MAX_DELTA, MAX_DELTA),
-    ) -> Segment:
-        """A segment driving the base to ``goal`` with the arm held at ``arm``, at most
-        ``speed`` (m, rad) per action."""
-        state = self.state
-        assert state is not None
-        start = base_pose(state, self.robot)
-        dist = float(np.linalg.norm(goal[:2] - start[:2]))
-        turn = abs(wrap_angle(float(goal[2] - start[2])))
-        return Segment(
-            base=(float(goal[0]), float(goal[1]), float(goal[2])),
-            arm=tuple(float(v) for v in arm),
-            gripper=gripper,
-            arm_tol=0.05,
-            base_tol=tol,
-            max_steps=math.ceil(max(dist / speed[0], turn / speed[1])) + 40,
-            base_speed=speed,
-        )
-
     def retract(self, state: ObjectCentricState) -> list[SegmentSource]:
         if np.abs(arm_joints(state, self.robot) - HOME).max() > 0.05:
             return [Segment(arm=tuple(HOME), arm_tol=0.05, max_steps=80)]
@@ -268,7 +241,7 @@ class PickController(_TossController):
         dist = 0.50 + 0.10 * float(self.params[0])
         wanted = (2.0 * float(self.params[1]) - 1.0) * math.pi
         c = _xy(state, cube)
-        cube_yaw = _yaw_of(np.asarray(state[cube][3:7]))
+        cube_yaw = quat_yaw(np.asarray(state[cube][3:7]))
         k = round((wanted - cube_yaw) / (math.pi / 2))
         heading = wrap_angle(cube_yaw + k * math.pi / 2)
         direction = np.array([math.cos(heading), math.sin(heading)])
@@ -363,8 +336,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     cubes = tuple(sorted(o for n, o in objects.items() if n.startswith("cube_")))
     ctx = TossContext(env, robot_obj, barrier, bin_obj, cubes)
 
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, MOVABLE_TYPE))
+    HandEmpty, Holding = hand_predicates()
     OnGround = Predicate("OnGround", (MOVABLE_TYPE,))
     InBin = Predicate("InBin", (MOVABLE_TYPE, MOVABLE_TYPE))
     Upright = Predicate("Upright", (MOVABLE_TYPE,))
@@ -403,13 +375,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         frozenset({Toppled.lift([w])}),
         frozenset({Upright.lift([w])}),
     )
-    pick = LiftedOperator(
-        "Pick",
-        (r, c),
-        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
-        frozenset({Holding.lift([r, c])}),
-        frozenset({HandEmpty.lift([r]), OnGround.lift([c])}),
-    )
+    pick = pick_operator(c, OnGround)
     drop = LiftedOperator(
         "Drop",
         (r, c, b, w),
