@@ -147,6 +147,7 @@ def test_the_cli_lists_a_campaign_without_running_it(tmp_path: Path) -> None:
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow  # loads every learned agent's module (torch, lerobot): ~40 s
 def test_the_committed_paper_campaign_loads() -> None:
     campaign = load_campaign(ROOT / "benchmarks" / "campaigns" / "paper.toml")
     assert {c.env_id for c in campaign.cells} == set(PAPER_ENVS)
