@@ -1,5 +1,19 @@
 """KinDERBench: agents, the evaluation runner, metrics and reports, and the ``kinder`` CLI.
 
+Where things are, top to bottom of the import layers (``[tool.importlinter]`` in the root
+``pyproject.toml`` checks them):
+
+* ``cli/``: the ``kinder`` command, one module per command group over ``cli/common.py``;
+* ``demo.py`` (the showcase run) and ``campaign.py`` (experiment campaigns);
+* ``baselines/``: every baseline, random and MPC included;
+* reporting (``report.py``, ``paper.py``, ``html_report.py``, ``results_doc.py``),
+  demonstrations (``demo_collection.py``, ``dataset_specs.py``, ``dataset_cards.py``) and
+  ``policy_server/``, none of which imports another;
+* evaluation: ``runner.py``, ``executors.py``, ``recording.py``, ``protocol.py``,
+  ``metrics.py``, ``results.py``, ``envs.py``;
+* ``agents/`` (the interface the runner drives and the registry) and ``training/`` (the
+  trainers' checkpoints and CSV logs).
+
 >>> from kinder_bench import RunConfig, run_benchmark, write_report
 >>> out = run_benchmark([RunConfig("kinder/Motion2D-p0-v0", "mpc", seeds=(0,), episodes=2)],
 ...                     "runs/example")                                   # doctest: +SKIP
