@@ -1,5 +1,10 @@
-"""Dynamic2D mechanics: grasp, carry and release; pushing; grasp rules; settling; physics
-safety; exact replay; goal predicates."""
+"""Dynamic2D mechanics under upstream's PD controller (the default): how far an action moves the
+robot, velocity features, grasp, carry and release, pushing, static contacts, non-graspable
+objects; the kept linear controller; exact replay; goal predicates; config validation.
+
+That every id draws upstream's initial states and makes upstream's transitions is checked against
+recorded upstream runs in ``test_conformance_dynamic2d.py``.
+"""
 
 from __future__ import annotations
 
@@ -16,31 +21,21 @@ from kinder_core import ObjectCentricState, make, make_object_centric
 from kinder_garden2d.dynamic2d.dyn_obstruction2d import DynObstruction2DEnv
 from kinder_garden2d.dynamic2d.dyn_pusht2d import DynPushT2DEnv
 from kinder_garden2d.dynamic2d.dyn_scooppour2d import DynScoopPour2DEnv
-from kinder_garden2d.dynamic2d.geometry import WorldShape, penetration, place
-from kinder_garden2d.dynamic2d.physics import StaticBox, shape_spec
 
 TABLE = 0.1
 
 
-def _obstruction_scene(
-    block_x: float = 1.5, width: float = 0.2, height: float = 0.3
-) -> DynObstruction2DEnv:
-    """DynObstruction2D-o0 with the block at ``block_x`` and the robot pointing down above it,
-    fingertips 0.1 below the block's top, fingers open."""
-    env = DynObstruction2DEnv(num_obstructions=0)
+def _obstruction_scene(config: dict[str, Any] | None = None) -> DynObstruction2DEnv:
+    """DynObstruction2D-o0 with a 0.2 × 0.3 block standing at x = 1.5 and the robot pointing down
+    above it, the gripper base 0.05 above the block's top, fingers open."""
+    env = DynObstruction2DEnv(num_obstructions=0, config=config)
     s, _ = env.reset(seed=0)
-    b = env.target_block
-    s.set(b, "x", block_x)
-    s.set(b, "y", TABLE + height / 2)
-    s.set(b, "theta", 0.0)
-    s.set(b, "width", width)
-    s.set(b, "height", height)
+    b, r = env.target_block, env.robot
+    s[b][:6] = (1.5, TABLE + 0.15, 0.0, 0.0, 0.0, 0.0)
+    s.set(b, "width", 0.2)
+    s.set(b, "height", 0.3)
     s.set(env.target_surface, "x", 2.8)
-    r = env.robot
-    reach = s.get(r, "arm_joint") + s.get(r, "gripper_base_width") / 2 + s.get(r, "finger_width")
-    s.set(r, "x", block_x + 0.02)  # off-centre: one finger touches first
-    s.set(r, "y", TABLE + height - 0.1 + reach)
-    s.set(r, "theta", -math.pi / 2)
+    s[r][:3] = (1.5, TABLE + 0.3 + 0.05 + s.get(r, "arm_joint"), -math.pi / 2)
     env.set_state(s)
     return env
 
@@ -55,80 +50,68 @@ def _act(env: Any, n: int, **deltas: float) -> ObjectCentricState:
     return s
 
 
+def test_an_action_moves_the_robot_most_of_the_way_and_reports_its_velocity() -> None:
+    env = _obstruction_scene()
+    r = env.robot
+    s0 = env.get_state()
+    s0.set(r, "y", 1.5)  # free space
+    env.set_state(s0)
+    s1 = _act(env, 1, dx=0.05)
+    moved = s1.get(r, "x") - s0.get(r, "x")
+    assert 0.9 * 0.05 < moved < 1.05 * 0.05  # the PD controller's ten control steps
+    assert s1.get(r, "vx_base") != 0.0  # the controller's velocity at the end of the action
+    # The velocity features feed the next action's controller.
+    fast = s0.copy()
+    fast.set(r, "vx_base", 0.3)
+    s_fast, _, _ = env.transition(fast, np.array([0.05, 0.0, 0.0, 0.0, 0.0]))
+    assert s_fast.get(r, "x") != s1.get(r, "x")
+
+
 def test_grasp_carry_release() -> None:
     env = _obstruction_scene()
     b, r = env.target_block, env.robot
-    s = _act(env, 6, dgripper=-0.02)  # 0.32 → 0.20 at most; the block (0.2) is held earlier
+    s = _act(env, 4, dgripper=-0.02)  # the fingers (0.26 apart) close on the 0.2 block
     assert s.get(b, "held") == 1.0
-    gap = s.get(r, "finger_gap")
-    assert gap > 0.2 + 0.06 - 0.03  # the fingers stopped on the block
-    s = _act(env, 3, dgripper=-0.02)
-    assert s.get(r, "finger_gap") == gap  # a held object keeps the fingers where they are
-    # Carry: the block moves rigidly with the gripper.
     rel = s[b][:2] - s[r][:2]
     s = _act(env, 8, dy=0.05)
-    s = _act(env, 6, dx=0.05)
+    s = _act(env, 4, dx=0.05)
     assert s.get(b, "held") == 1.0
-    np.testing.assert_allclose(s[b][:2] - s[r][:2], rel, atol=1e-9)
-    assert s.get(b, "y") > TABLE + 0.15 + 0.35
-    assert s.get(b, "vx") == pytest.approx(0.5)  # 0.05 per 0.1 s
-    # Release while moving: the block leaves the opening fingers with the gripper's velocity.
-    s = _act(env, 1, dx=0.05, dgripper=0.02)
+    np.testing.assert_allclose(s[b][:2] - s[r][:2], rel, atol=1e-4)  # carried rigidly
+    assert s.get(b, "y") > TABLE + 0.15 + 0.3
+    s = _act(env, 1, dgripper=0.02)  # opening releases it
     assert s.get(b, "held") == 0.0
-    assert s.get(b, "vx") == pytest.approx(0.5, abs=0.02)
-    assert s.get(b, "vy") < -0.5  # falling
-    s = _act(env, 20)
-    assert s.get(b, "y") == pytest.approx(TABLE + 0.15, abs=0.01)  # back on the table
-    assert abs(s.get(b, "vx")) < 1e-2 and abs(s.get(b, "vy")) < 1e-2
+    s = _act(env, 10)
+    assert s.get(b, "y") == pytest.approx(TABLE + 0.15, abs=0.01)  # fell back onto the table
 
 
 def test_push_without_grasp() -> None:
     env = _obstruction_scene()
     b, r = env.target_block, env.robot
     s = env.get_state()
-    # The base (radius 0.24) at the block's left, at block height, arm pointing up.
-    s.set(r, "theta", math.pi / 2)
-    s.set(r, "x", 1.5 - 0.1 - 0.24 - 0.02)
-    s.set(r, "y", TABLE + 0.24 + 0.02)
+    # The base (radius 0.24) at the block's left, at block height, arm pointing up (the arm's
+    # bar reaches 0.27 behind the base's centre: it must clear the table).
+    s[r][:3] = (1.5 - 0.1 - 0.24 - 0.02, TABLE + 0.3, math.pi / 2)
     env.set_state(s)
     x0 = s.get(b, "x")
     s = _act(env, 10, dx=0.05)
     assert s.get(b, "x") > x0 + 0.3
     assert s.get(b, "held") == 0.0
-    assert s.get(r, "x") == pytest.approx(1.5 - 0.36 + 0.5)  # the robot was never blocked
 
 
-def test_static_contact_stops_the_robot() -> None:
+def test_static_contact_reverts_the_robot() -> None:
     env = _obstruction_scene()
     r = env.robot
     s = env.get_state()
-    y0 = s.get(r, "y")
+    s.set(env.target_block, "x", 0.6)  # out of the way
+    env.set_state(s)
+    reach = s.get(r, "arm_joint") + s.get(r, "finger_width")
+    ys = []
     for _ in range(30):
         s, *_ = env.step(np.array([0.0, -0.05, 0.0, 0.0, 0.0]))
-    # Fingertips (0.47 below the base) stop above the table top; nothing went through it.
-    assert s.get(r, "y") - 0.47 >= TABLE - 1e-9
-    assert s.get(r, "y") < y0
-    assert s.get(r, "vy_base") == 0.0
-
-
-def test_two_objects_between_the_fingers_abort_the_grasp() -> None:
-    env = DynObstruction2DEnv(num_obstructions=1)
-    s, _ = env.reset(seed=0)
-    a, b, r = env.target_block, env.obstructions[0], env.robot
-    for obj, x in ((a, 1.45), (b, 1.55)):
-        s[obj][:3] = (x, TABLE + 0.15, 0.0)
-        s.set(obj, "width", 0.08)
-        s.set(obj, "height", 0.3)
-    s.set(env.target_surface, "x", 2.8)
-    s[r][:3] = (1.5, TABLE + 0.3 - 0.1 + 0.47, -math.pi / 2)
-    s.set(r, "finger_gap", 0.245)  # finger faces 0.0025 from the blocks' outer sides
-    env.set_state(s)
-    gaps = [s.get(r, "finger_gap")]
-    for _ in range(8):
-        s, *_ = env.step(np.array([0.0, 0.0, 0.0, 0.0, -0.02]))
-        gaps.append(s.get(r, "finger_gap"))
-        assert s.get(a, "held") == 0.0 and s.get(b, "held") == 0.0
-    assert max(np.diff(gaps)) > 0  # the fingers opened after touching both blocks
+        ys.append(s.get(r, "y"))
+        # The fingertips never enter the table (beyond pymunk's collision slop).
+        assert s.get(r, "y") - reach >= TABLE - 0.01
+    assert ys[-1] == pytest.approx(ys[-5], abs=1e-3)  # stopped at the table
 
 
 def test_small_objects_are_never_grasped() -> None:
@@ -137,8 +120,7 @@ def test_small_objects_are_never_grasped() -> None:
     r = env.robot
     sq = env.squares[0]
     s[sq][:6] = (2.5, 0.044, 0.0, 0.0, 0.0, 0.0)
-    reach = s.get(r, "arm_joint") + s.get(r, "gripper_base_width") / 2 + s.get(r, "finger_width")
-    s[r][:3] = (2.5, 0.03 + reach, -math.pi / 2)
+    s[r][:3] = (2.5, 0.088 + 0.03 + s.get(r, "arm_joint"), -math.pi / 2)
     env.set_state(s)
     for _ in range(15):
         s, *_ = env.step(np.array([0.0, 0.0, 0.0, 0.0, -0.015]))
@@ -150,9 +132,8 @@ def test_scoop_handle_is_grasped_and_lifted() -> None:
     s, _ = env.reset(seed=0)
     r, h = env.robot, env.hook
     hx, hy = s.get(h, "x"), s.get(h, "y")
-    reach = s.get(r, "arm_joint") + s.get(r, "gripper_base_width") / 2 + s.get(r, "finger_width")
-    # Fingers around the top of the upright handle (x ∈ [hx − 0.05, hx]).
-    s[r][:3] = (hx - 0.025, hy + 0.45 + reach, -math.pi / 2)
+    # Fingers around the top of the upright handle.
+    s[r][:3] = (hx - 0.025, hy + 0.45 + s.get(r, "arm_joint") + 0.04, -math.pi / 2)
     env.set_state(s)
     for _ in range(12):
         s, *_ = env.step(np.array([0.0, 0.0, 0.0, 0.0, -0.015]))
@@ -161,55 +142,21 @@ def test_scoop_handle_is_grasped_and_lifted() -> None:
     assert s.get(h, "y") > hy + 0.25
 
 
-@pytest.mark.parametrize(
-    "env_id",
-    [
-        "kinder/DynObstruction2D-o3-v0",
-        "kinder/DynPushT2D-t1-v0",
-        "kinder/DynPushPullHook2D-o5-v0",
-        "kinder/DynScoopPour2D-o50-v0",
-    ],
-)
-def test_settled_resets_have_no_overlaps(env_id: str) -> None:
-    env = make_object_centric(env_id)
-    u = env.unwrapped
-    for seed in range(3):
-        s, _ = env.reset(seed=seed)
-        shapes = []
-        for o in u.scene.objects:
-            names, builder = shape_spec(o.type)
-            f = s[o]
-            shapes.append(place(builder(*(s.get(o, n) for n in names)), f[0], f[1], f[2]))
-        statics = [place_static(sb) for sb in u.scene.statics if sb.z == 100.0]
-        worst = max(
-            [penetration(a, b) for i, a in enumerate(shapes) for b in shapes[i + 1 :]]
-            + [penetration(a, w) for a in shapes for w in statics]
-            + [-1.0]
-        )
-        assert worst < 0.005, f"{env_id} seed {seed}: objects overlap by {worst:.4f}"
-        assert np.all(s.data[u.scene.pose_idx[:, 3:]] == 0.0)  # at rest
-
-
-def place_static(sb: StaticBox) -> WorldShape:
-    return WorldShape((sb.poly,))
-
-
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("env_id", "steps"),
     [
-        ("kinder/DynObstruction2D-o3-v0", 3000),
-        ("kinder/DynPushT2D-t1-v0", 3000),
-        ("kinder/DynPushPullHook2D-o5-v0", 3000),
-        ("kinder/DynScoopPour2D-o20-v0", 2000),
+        ("kinder/DynObstruction2D-o3-v0", 300),
+        ("kinder/DynPushT2D-t1-v0", 300),
+        ("kinder/DynPushPullHook2D-o5-v0", 300),
+        ("kinder/DynScoopPour2D-o20-v0", 200),
     ],
 )
-def test_random_steps_stay_finite_and_in_the_world(env_id: str, steps: int) -> None:
+def test_random_steps_stay_finite(env_id: str, steps: int) -> None:
     env = make(env_id)
-    box = env.get_wrapper_attr("box")
-    u = env.unwrapped
-    env.reset(seed=1)
-    env.action_space.seed(1)
-    rng = np.random.default_rng(1)
+    env.reset(seed=1001)
+    env.action_space.seed(1001)
+    rng = np.random.default_rng(1001)
     for t in range(steps):
         # Mostly random; sometimes a burst of one repeated extreme action (drives into walls).
         if rng.uniform() < 0.7:
@@ -218,15 +165,18 @@ def test_random_steps_stay_finite_and_in_the_world(env_id: str, steps: int) -> N
             a = np.sign(rng.normal(size=env.action_space.shape)) * env.action_space.high
         obs, _, term, trunc, _ = env.step(a)
         assert np.all(np.isfinite(obs)), f"{env_id}: non-finite observation at step {t}"
-        assert box.contains(obs), f"{env_id}: observation outside the Box at step {t}"
         if term or trunc:
             env.reset()
-    assert u.num_physics_reverts <= steps // 100
 
 
-def test_tunnelling_is_detected_and_discarded() -> None:
-    env = _obstruction_scene()
-    b = env.target_block
+def test_linear_controller_moves_exactly_and_discards_tunnelling() -> None:
+    env = _obstruction_scene(config={"controller": "linear"})
+    b, r = env.target_block, env.robot
+    s0 = env.get_state()
+    s0.set(r, "y", 1.5)
+    s1, _, _ = env.transition(s0, np.array([0.05, 0.0, 0.0, 0.0, 0.0]))
+    assert s1.get(r, "x") - s0.get(r, "x") == pytest.approx(0.05, abs=1e-12)
+    assert s1.get(r, "vx_base") == pytest.approx(0.5)  # the commanded average (0.05 per 0.1 s)
     s = env.get_state()
     s.set(b, "vy", -500.0)  # would leave through the table and the floor in one action
     env.set_state(s)
@@ -324,6 +274,8 @@ def test_scooppour_goal_counts_resting_objects_on_the_right() -> None:
 
 
 def test_pusht_goal_wraps_angles() -> None:
+    """A kept correction: upstream compares raw angles, so a block 0.02 rad from its goal across
+    ±π never counts; ours wraps the difference."""
     env = DynPushT2DEnv()
     s, _ = env.reset(seed=0)
     t, g = env.tblock, env.goal_tblock
@@ -337,8 +289,13 @@ def test_pusht_goal_wraps_angles() -> None:
 
 
 def test_config_overrides_and_bad_arguments() -> None:
-    env = DynObstruction2DEnv(config={"action_seconds": 1.0})
+    env = DynObstruction2DEnv(config={"controller": "linear", "action_seconds": 1.0})
     assert env.config.action_seconds == 1.0 and env.scene.settings.substeps == 50
+    assert not env.uses_pd and DynObstruction2DEnv().uses_pd
+    with pytest.raises(ValueError, match="controller"):
+        DynObstruction2DEnv(config={"controller": "exact"})
+    with pytest.raises(ValueError, match="multiple of control_hz"):
+        DynObstruction2DEnv(config={"sim_hz": 105})
     with pytest.raises(ValueError, match="no field"):
         DynObstruction2DEnv(config={"gravityy": 1.0})
     with pytest.raises(ValueError, match="whole multiple"):
@@ -347,13 +304,13 @@ def test_config_overrides_and_bad_arguments() -> None:
         DynObstruction2DEnv(num_obstructions=-1)
     with pytest.raises(ValueError, match="num_tee"):
         DynPushT2DEnv(num_tee=2)
-    with pytest.raises(ValueError, match="do not fit"):
-        DynScoopPour2DEnv(num_objects=100)
+    with pytest.raises(ValueError, match="num_objects"):
+        DynScoopPour2DEnv(num_objects=0)
 
 
 def test_families_are_constructible_with_any_count() -> None:
     for env in (
-        DynObstruction2DEnv(num_obstructions=5),
+        DynObstruction2DEnv(num_obstructions=3),
         DynScoopPour2DEnv(num_objects=3),
     ):
         env.reset(seed=0)

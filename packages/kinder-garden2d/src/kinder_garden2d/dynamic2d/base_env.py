@@ -479,6 +479,10 @@ class Dynamic2DEnv(ObjectCentricEnv):
                 bounds[f"kin_robot.vx_{part}"] = (-lin, lin)
                 bounds[f"kin_robot.vy_{part}"] = (-lin, lin)
                 bounds[f"kin_robot.omega_{part}"] = (-ang, ang)
+        if self.uses_pd:
+            # Upstream's Box is unbounded: its PD-driven velocities and unwrapped angles have no
+            # fixed range.
+            return {k: (-math.inf, math.inf) for k in bounds}
         return bounds
 
     # -- rendering -----------------------------------------------------------------------------
