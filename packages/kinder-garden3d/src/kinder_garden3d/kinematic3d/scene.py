@@ -46,9 +46,9 @@ TOOL_OFFSET = 0.12
 #: flange's roll π followed by −π/2 about the new z).
 _GRIPPER_TO_FLANGE = (0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5))
 #: Arm links checked against each other for self-collisions, in chain order, and the finger links
-#: checked against all but the last two of them. Neighbours in the chain are not checked (they
-#: touch at their joint); this is the pair list of upstream's Gen3 + 2F-85 pybullet robot, mapped
-#: onto this model's links (upstream's list skips spherical_wrist_2 and the gripper housing).
+#: checked against all but the last of them. Neighbours in the chain are not checked (they touch
+#: at their joint). This is the pair list of upstream's Gen3 + 2F-85 pybullet robot mapped onto
+#: this model's links: it leaves out spherical_wrist_2 and the gripper housing.
 SELF_COLLISION_ARM = (
     "shoulder_link",
     "half_arm_1_link",
@@ -56,7 +56,6 @@ SELF_COLLISION_ARM = (
     "forearm_link",
     "spherical_wrist_1_link",
     "bracelet_link",
-    "gripper_base_link",
 )
 SELF_COLLISION_FINGERS = ("left_finger_link", "right_finger_link")
 _HULL_MARGIN = 0.001
@@ -157,7 +156,7 @@ class PyBulletScene:
         self._finger_links = list(self._finger_idx)
         arm = SELF_COLLISION_ARM
         pairs = [(arm[i], arm[j]) for i in range(len(arm)) for j in range(i + 2, len(arm))]
-        pairs += [(a, f) for a in arm[:-2] for f in SELF_COLLISION_FINGERS]
+        pairs += [(a, f) for a in arm[:-1] for f in SELF_COLLISION_FINGERS]
         self._self_pairs = [(self._link_idx[a], self._link_idx[b]) for a, b in pairs]
         marker_shape = pb.createCollisionShape(
             pb.GEOM_BOX, halfExtents=list(MARKER_HALF), physicsClientId=cid
