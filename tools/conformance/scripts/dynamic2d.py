@@ -23,7 +23,7 @@ import math
 from collections.abc import Callable
 
 SEEDS = [0, 1]
-MAX_STEPS = 120
+MAX_STEPS = 80
 
 State = dict[str, float]
 Policy = Callable[[State, int], "list[float] | None"]
@@ -125,7 +125,7 @@ def _kin_scripts(objs: list[str], bounds: tuple[float, float, float]) -> dict[st
             mem["t"] += 1
             dth = _clip(_wrap(DOWN - th), max_dth)
             if phase == 0:  # turn down, rise and go to the object's left
-                if abs(side - rx) < 0.01 and abs(safe - ry) < 0.01 or mem["t"] > 60:
+                if (abs(side - rx) < 0.01 and abs(safe - ry) < 0.01) or mem["t"] > 60:
                     mem["phase"], mem["t"] = 1.0, 0.0
                 return [_clip(side - rx, max_dxy), _clip(safe - ry, max_dxy), dth, 0.0, 0.0]
             if phase == 1:  # lower the fingers beside it
@@ -181,11 +181,6 @@ def scripts(env_id: str, feature_names: list[str]) -> dict[str, Policy]:
     if "robot.finger_gap" in feature_names:
         family = env_id.split("/", 1)[1].split("-", 1)[0]
         max_dth = math.pi / 48 if family == "DynPushPullHook2D" else math.pi / 16
-        if family == "DynObstruction2D":
-            targets = [o for o in ("target_block", "obstruction0") if o in objs]
-        elif family == "DynPushPullHook2D":
-            targets = ["hook"]
-        else:
-            targets = [o for o in ("hook",) if o in objs]
+        targets = ["target_block"] if family == "DynObstruction2D" else ["hook"]
         return _kin_scripts(targets, (0.05, max_dth, 0.02))
     return _dot_scripts([o for o in objs if o.startswith("tblock")][:1], 0.05)

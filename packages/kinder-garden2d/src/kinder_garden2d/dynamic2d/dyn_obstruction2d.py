@@ -75,24 +75,26 @@ class DynObstruction2DEnv(Dynamic2DEnv):
     place the purple target block so that it rests on the purple target surface, a strip of the
     grey table. Red obstruction blocks often stand on the surface; the robot may pick them up and
     put them elsewhere, or push them away. All blocks are dynamic pymunk bodies (mass 1) that fall,
-    slide and topple; a block wider than the open fingers' gap (0.26 between the finger faces)
-    cannot be grasped, and toppling can make a block ungraspable.
+    slide and topple; a block wider than the open fingers' inner gap (0.26) cannot be grasped.
 
-    The robot is kinematic: each action moves it by the commanded deltas, spread evenly over the
-    action's simulated time (0.1 s, five 0.02 s substeps). If any robot part (or what it holds)
-    touches the table or a wall, the robot returns to its last pose, stops for the rest of that
-    action, and nothing else about the action changes. Closing the fingers on a block grasps it
-    when the contact normal is within 0.1 rad of the closing direction, the block's centre of mass
-    lies between the fingers, and the contact is along the fingers; the block is then rigidly
-    attached until the fingers open, when it is released with its current velocity. Two blocks
-    between the closing fingers abort the grasp and the fingers open.
+    Transitions are upstream kindergarden 0.2.5's (see
+    :mod:`~kinder_garden2d.dynamic2d.pd_physics`): an action sets a target pose (the deltas added
+    to the current pose; arm and gap clipped to their ranges) and a PD controller (gains 50/5)
+    drives the robot's kinematic bodies towards it for 1 s of simulated time (10 control steps of
+    10 physics steps of 0.01 s), so the robot covers about 97% of a step and keeps a residual
+    velocity, which the velocity features report and the next action's controller starts from. A
+    robot part touching the table or a wall puts the robot back where that control step began, at
+    rest. Closing fingers grasp a block when a left-finger contact's normal is within 0.1 rad of
+    the closing direction, the block's centre lies between the fingers and the contact point lies
+    on the first half of the fingers; the block then follows the gripper rigidly until the fingers
+    open.
 
     ## Observation Space
     Object-centric states with objects `target_surface` (`target_surface`, 14 features),
     `target_block` (`target_block`, 15), `obstruction0..N-1` (`dyn_rectangle`, 15 each) and `robot`
     (`kin_robot`, 24). The Box view lists them in that order (the robot last, as upstream):
-    14 + 15 + 15N + 24 values (68 for o1). Positions are body centres; velocities are of the
-    centre of mass; angles are wrapped to [−π, π).
+    14 + 15 + 15N + 24 values (68 for o1), unbounded as upstream's. Positions are body centres;
+    angles are pymunk's (not wrapped), as upstream reports them.
 
     ## Action Space
     `[dx, dy, dtheta, darm, dgripper]` (float64): base translation (±0.05) and rotation (±π/16),
@@ -104,13 +106,13 @@ class DynObstruction2DEnv(Dynamic2DEnv):
     −1 per step.
 
     ## Starting State
-    A table across the bottom of a 3.236 × 2 world. The target block (width U[0.16, 0.48], height
-    U[0.24, 0.48]) and N obstructions (same size ranges) stand on the table; the target surface is
-    as wide as the block plus U[0.048, 0.12]. Each obstruction overlaps the surface horizontally
-    with probability 0.9. Centres stay 0.4 from the side walls. Samples where blocks overlap or the
-    goal already holds are redrawn. The robot starts above the blocks (x in the world less 0.3 at
-    each side, y ∈ [1.0, 1.6], θ ∈ [−π/2, π/2]), arm retracted, fingers open, touching nothing.
-    The blocks then settle (at most 1 s of simulated time; velocities are zeroed afterwards).
+    Upstream's sampling, draw for draw (the same seed gives upstream's initial state): the robot
+    at x, y ∈ [0.2, 0.8], θ ∈ [−π/2, π/2] (arm retracted, fingers open); the target block (width
+    U[0.16, 0.48], height U[0.24, 0.48]) and N obstructions (same ranges) 0.05 above the table,
+    centres in [0.24, 3.0]; the target surface as wide as the block plus U[0.048, 0.12]; each
+    obstruction over the surface with probability 0.9. Draws where anything overlaps, or the
+    surface leaves the table, are redrawn. The blocks then fall and settle for 1 s (robot still);
+    the state is read back from the simulation, residual velocities included.
 
     ## Episode End
     Terminates when the target block is on the target surface: its two lowest corners, moved
@@ -119,25 +121,17 @@ class DynObstruction2DEnv(Dynamic2DEnv):
     ## Arguments
     * `num_obstructions` (default 2): number of red obstruction blocks.
     * `config`: a `DynObstruction2DConfig` or a mapping of field overrides (world size, physics,
-      time per action, robot geometry, sampling ranges).
+      controller, robot geometry, sampling ranges).
 
     ## Deviations
-    * Time: one action is 0.1 s of simulated time in five 0.02 s substeps (upstream integrates
-      1.0 s per action in 100 substeps of 0.01 s, although its comments say 10 Hz). Contacts are
-      solved with 10 iterations, and each action starts with one priming substep that is then
-      undone (`warm_start`), so resting stacks do not creep. `action_seconds`,
-      `substep_seconds`, `solver_iterations` and `warm_start` in the config change this.
-    * The robot follows its commanded motion exactly (a linear interpolation over the action)
-      instead of upstream's PD velocity controller (gains 50/5); actions therefore mean exactly
-      "move by this delta" when nothing blocks the robot.
-    * Each transition is computed from the observed state alone (a fresh physics space per
-      action), so `set_state` replays exactly; contact impulses are not carried across actions.
-    * Blocks and the surface keep 0.4 from the side walls; the robot starts above the blocks
-      (upstream: x, y ∈ [0.2, 0.8], which can overlap the table and the blocks).
-    * A held block stops the closing fingers; a grasp needs the geometric conditions above on a
-      contact with either finger.
-    * A transition that leaves an object outside the world, non-finite, or faster than 20 m/s
-      (100 rad/s) is discarded (tunnelling safety); `env.num_physics_reverts` counts them.
+    * Each transition is computed from the observed state alone (a fresh pymunk space per action,
+      built as upstream builds it when reset from a state), so `set_state` replays exactly; it
+      equals upstream's reload-then-step to 1e-9. Upstream's uninterrupted runs also carry
+      Chipmunk's cached contact impulses between actions, which its state vector lacks.
+    * Kept option, off by default: `controller="linear"` moves the robot exactly by the commanded
+      deltas over 0.1 s (five 0.02 s substeps), reports the commanded average velocity and stops
+      the robot at a static contact; it also discards transitions that leave an object outside
+      the world or faster than 20 m/s (`env.num_physics_reverts`).
 
     ## References
     KinDER (RSS 2026), the Dynamic2D environments; pymunk (Chipmunk2D).

@@ -71,12 +71,13 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
     upper half among brown obstructions. The robot must grasp the hook, reach over the wall and
     drag the target down until it overlaps the wall.
 
-    The robot is kinematic and follows its commanded motion exactly over each action's 0.1 s
-    (five 0.02 s substeps); a static contact (walls, or the middle wall for the base) returns it to
-    its last pose and stops it for the rest of the action. Closing the fingers on the hook or a
-    block grasps it (contact normal within 0.1 rad of the closing direction, centre of mass between
-    the fingers, contact along the fingers); opening releases it with its velocity. Held objects
-    push the others with the robot's infinite mass.
+    Transitions are upstream kindergarden 0.2.5's (see
+    :mod:`~kinder_garden2d.dynamic2d.pd_physics`): a PD controller drives the robot towards the
+    commanded target for 1 s of simulated time per action (10 control steps of 10 physics steps
+    of 0.01 s), covering most of each step and keeping a residual velocity that the velocity
+    features report; a robot contact with a static body puts the robot back where that control
+    step began. Closing the fingers on the hook or a block grasps it (as in
+    DynObstruction2D); opening releases it.
 
     ## Observation Space
     Object-centric states with `robot` (`kin_robot`, 24 features), `hook` (`hook` ⊂ `lobject`, 16),
@@ -93,11 +94,13 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
     −1 per step.
 
     ## Starting State
-    Robot x, y ∈ [0.3, 0.4], θ ∈ [0, π/2], arm retracted, fingers open. Hook (width 0.107, arms
-    1.4 and 0.583, mass 1) at x ∈ [1.4, 3.393], y ∈ [0.875, 1.167], θ ∈ [−π/12, π/12]. Target
-    square (side U[0.16, 0.477], mass 1) at x ∈ [0.583, 2.917], y ∈ [2.333, 2.917], θ ∈ [−π, π).
-    Obstructions (sides U[0.12, 0.583], mass 1, θ ∈ [−π, π)) are Gaussian (σ 0.25) around the
-    target. Everything is sampled free of overlaps with everything else and with the walls.
+    Upstream's sampling, draw for draw (the same seed gives upstream's initial state): robot
+    x, y ∈ [0.3, 0.4], θ ∈ [0, π/2], arm retracted, fingers open; then the target square (side
+    U[0.16, 0.477], mass 1; x ∈ [0.583, 2.917], y ∈ [2.333, 2.917], θ ∈ [−π, π]) and the hook
+    (width 0.107, arms 1.4 and 0.583, mass 1; corner x ∈ [1.4, 3.393], y ∈ [0.875, 1.167],
+    θ ∈ [−π/12, π/12]) together until neither overlaps the hook, the robot or a wall; then each
+    obstruction (sides U[0.12, 0.583], θ ∈ [−π, π]) Gaussian (σ 0.25) around the target until it
+    overlaps nothing. The scene then settles for 1 s (nothing moves without gravity).
 
     ## Episode End
     Terminates when the target block overlaps the middle wall. Truncated after 500 steps by the
@@ -108,15 +111,13 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
     * `config`: a `DynPushPullHook2DConfig` or a mapping of field overrides.
 
     ## Deviations
-    * Time: 0.1 s of simulated time per action in five 0.02 s substeps
-      (upstream: 1.0 s in 100 of 0.01 s); the robot tracks its commanded motion exactly
-      rather than through a PD controller.
-    * Each transition is computed from the observed state alone (a fresh physics space per
-      action), so `set_state` replays exactly.
-    * The hook's mass (1) and the obstructions' orientation (uniform) are our choices; upstream's
-      are not specified.
-    * A transition that leaves an object outside the world, non-finite, or faster than 20 m/s
-      (100 rad/s) is discarded; `env.num_physics_reverts` counts them.
+    * Each transition is computed from the observed state alone (a fresh pymunk space per action,
+      built as upstream builds it when reset from a state), so `set_state` replays exactly; it
+      equals upstream's reload-then-step to 1e-9 (upstream's uninterrupted runs also carry
+      Chipmunk's cached contact impulses between actions, which its state vector lacks).
+    * Kept option, off by default: `controller="linear"` (the robot moves exactly by the commanded
+      deltas over `action_seconds`, reports the commanded average velocity, and transitions that
+      leave an object outside the world are discarded, `env.num_physics_reverts`).
 
     ## References
     KinDER (RSS 2026), the Dynamic2D environments; pymunk (Chipmunk2D).

@@ -67,15 +67,17 @@ class DynPushT2DEnv(Dynamic2DEnv):
     A top-down 5 × 5 world without gravity. A dot robot (a kinematic disc of radius 0.1) pushes a
     dynamic T-shaped block (mass 1) until it matches the light-green goal T in position and
     orientation. Damping is 0, so the block keeps no velocity between substeps: pushing is
-    quasi-static. The robot follows its commanded displacement exactly, spread over the action's
-    0.1 s (five 0.02 s substeps); touching a wall returns it to its last position and stops it for
-    the rest of the action.
+    quasi-static. Transitions are upstream kindergarden 0.2.5's: a PD controller (gains 50/5)
+    drives the robot towards its position plus the action for 1 s of simulated time (10 control
+    steps of 10 physics steps of 0.01 s); touching a wall puts it back where that control step
+    began, at rest.
 
     ## Observation Space
     Object-centric states with `tblock` (`tobject`, 16 features), `robot` (`dot_robot`, 13) and
     `goal_tblock` (`tobject`, 16, static). The Box view lists them in that order: 45 float64
     values. A T's origin is the top-centre of its bar: the bar spans local x ∈ [−lh/2, lh/2],
-    y ∈ [−w, 0], the stem x ∈ [−w/2, w/2], y ∈ [−w − lv, −w]. Angles are wrapped to [−π, π).
+    y ∈ [−w, 0], the stem x ∈ [−w/2, w/2], y ∈ [−w − lv, −w]. The block's angle is shifted by 2π
+    once when it leaves [−π, π], as upstream does.
 
     ## Action Space
     `[dx, dy]` (float64), each in [−0.05, 0.05]: the robot's displacement. Out-of-bound actions
@@ -85,10 +87,11 @@ class DynPushT2DEnv(Dynamic2DEnv):
     −1 per step.
 
     ## Starting State
-    The block's bar width U[0.10, 0.15], bar and stem lengths U[1.0, 1.25]; its pose and the goal
-    pose x, y ∈ [1, 4], θ ∈ [−π, π). The goal has the block's shape. The robot starts at
-    x, y ∈ [1, 2]. Samples where the robot touches the block, a T leaves the world, or the goal
-    already holds are redrawn.
+    Upstream's sampling, draw for draw (the same seed gives upstream's initial state): the robot
+    at x, y ∈ [1, 2]; the block's pose x, y ∈ [1, 4], θ ∈ [−π, π], bar width U[0.10, 0.15], bar
+    and stem lengths U[1.0, 1.25]; the goal pose likewise (the goal has the block's shape). Draws
+    where the robot touches the block, the goal outline or a wall, or either T touches a wall, are
+    redrawn; the scene then settles for 1 s.
 
     ## Episode End
     Terminates when |x − x_goal| < 0.03, |y − y_goal| < 0.03 and the *wrapped* angle difference
@@ -101,13 +104,13 @@ class DynPushT2DEnv(Dynamic2DEnv):
     ## Deviations
     * The goal compares the wrapped angle difference; upstream compares raw angles, so a block at
       θ = π − ε never matches a goal at −π + ε although the poses are almost identical.
-    * Time: 0.1 s of simulated time per action in five 0.02 s substeps
-      (upstream: 1.0 s in 100 of 0.01 s); the robot tracks its commanded displacement
-      exactly rather than through a PD controller.
-    * Each transition is computed from the observed state alone (a fresh physics space per
-      action), so `set_state` replays exactly.
-    * A transition that leaves the block outside the world, non-finite, or faster than 20 m/s is
-      discarded; `env.num_physics_reverts` counts them.
+    * Each transition is computed from the observed state alone (a fresh pymunk space per action,
+      built as upstream builds it when reset from a state), so `set_state` replays exactly; it
+      equals upstream's reload-then-step to 1e-9 (upstream's uninterrupted runs also carry
+      Chipmunk's cached contact impulses between actions, which its state vector lacks).
+    * Kept option, off by default: `controller="linear"` (the robot moves exactly by the commanded
+      deltas over `action_seconds`, reports the commanded average velocity, and transitions that
+      leave an object outside the world are discarded, `env.num_physics_reverts`).
 
     ## References
     Chi et al., Diffusion Policy (PushT); KinDER (RSS 2026).

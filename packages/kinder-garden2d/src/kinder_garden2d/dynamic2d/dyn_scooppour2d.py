@@ -94,12 +94,13 @@ class DynScoopPour2DEnv(Dynamic2DEnv):
     (the small objects cannot be grasped), scoop objects from the pile, carry them over the wall and
     pour them onto the right floor.
 
-    The robot is kinematic and follows its commanded motion exactly over each action's 0.1 s
-    (two 0.05 s substeps: gravity is only −1, so g·dt² stays below that of a 0.02 s substep
-    at g = −9.8); touching a wall or the floor (directly or with the held scoop) returns it
-    to its last pose and stops it for the rest of the action. Closing the fingers on the scoop
-    grasps it (contact normal within 0.1 rad of the closing direction, centre of mass between the
-    fingers, contact along the fingers); opening releases it with its velocity.
+    Transitions are upstream kindergarden 0.2.5's (see
+    :mod:`~kinder_garden2d.dynamic2d.pd_physics`): a PD controller drives the robot towards the
+    commanded target for 1 s of simulated time per action (10 control steps of 10 physics steps
+    of 0.01 s), covering most of each step and keeping a residual velocity that the velocity
+    features report; a robot contact with a static body puts the robot back where that control
+    step began. The held scoop counts as part of the robot for static contacts.
+    Closing the fingers on the scoop grasps it (the small objects cannot be grasped).
 
     ## Observation Space
     Object-centric states with `robot` (`kin_robot`, 24 features), `hook` (`hook` ⊂ `lobject`, 16)
@@ -116,14 +117,15 @@ class DynScoopPour2DEnv(Dynamic2DEnv):
     −1 per step.
 
     ## Starting State
-    Variant oN has N // 2 discs (radius U[0.0625, 0.0833]) and N − N // 2 squares (side
-    U[0.0833, 0.0893]), mass 0.1 each, random angles, in distinct cells of a 0.18 lattice left of
-    the wall (x ∈ [0.1, 1.65], from the floor up), jittered within their cells. The scoop (width
-    0.05, arms 0.5, mass 0.5) stands at x ∈ [3.0, 3.3], y ∈ [0.05, 0.7], θ = −π/2 (handle up,
-    foot to the left). The robot starts at x ∈ [0.5, 3.0], y ∈ [2.0, 2.5], θ ∈ [−π, −π/2], arm
-    retracted, fingers open, touching nothing. Everything then settles under gravity until all
-    speeds are below 0.005 (spins below 0.05; at most 6 s of simulated time); velocities are then
-    zeroed.
+    Upstream's sampling, draw for draw (the same seed gives upstream's initial state): the robot
+    at x ∈ [0.5, 3.0], y ∈ [2.0, 2.5], θ ∈ [−π, −π/2] (arm retracted, fingers open); then the
+    scoop (width 0.05, arms 0.5, mass 0.5; corner x ∈ [3.125, 3.5], y ∈ [0.05, 0.7],
+    θ ∈ [−π/2, −π/2 + 0.001]) and the small objects (variant oN: N // 2 discs of radius
+    U[0.0625, 0.0833], then N − N // 2 squares of side U[0.0833, 0.0893]; mass 0.1; anywhere in
+    x ∈ [0.2, 1.45], y ∈ [0, 1.3], overlapping freely), redrawn until the robot touches neither
+    the scoop nor a wall. Everything then settles for 30 s of simulated time, which pushes the
+    small objects apart into a pile; the state is read back with its residual velocities. Discs
+    keep their drawn angle (upstream never rotates a disc's body).
 
     ## Episode End
     Terminates when at least half of the small objects rest on the right: x > 1.75, y < 0.75 and
@@ -134,20 +136,19 @@ class DynScoopPour2DEnv(Dynamic2DEnv):
     * `config`: a `DynScoopPour2DConfig` or a mapping of field overrides.
 
     ## Deviations
-    * Upstream draws the small objects anywhere in x ∈ [0.2, 1.45], y ∈ [0, 1.3], overlapping, and
-      settles for 30 s; here they start apart on a jittered lattice and settle until at rest
-      (at most 6 s), which gives the same kind of pile far faster.
-    * The scoop's corner starts at x ∈ [3.0, 3.3] (upstream: [3.125, 3.5]) so that open fingers
-      fit on both sides of its handle without touching the right wall.
     * Upstream's class default is 10 circles and no squares; the registered variants (and this
       class) split N into N // 2 circles and N − N // 2 squares.
-    * Time: 0.1 s of simulated time per action in two 0.05 s substeps
-      (upstream: 1.0 s in 100 of 0.01 s); the robot tracks its commanded motion exactly
-      rather than through a PD controller.
-    * Each transition is computed from the observed state alone (a fresh physics space per
-      action), so `set_state` replays exactly.
-    * A transition that leaves an object outside the world, non-finite, or faster than 20 m/s
-      (100 rad/s) is discarded; `env.num_physics_reverts` counts them.
+    * A held scoop is attached with the robot already in place. Upstream, reloading a state with
+      a held scoop, attaches it before placing the robot (the scoop's offset is then measured
+      from the robot's creation pose); since our transitions reload at every action, we keep the
+      correct offset.
+    * Each transition is computed from the observed state alone (a fresh pymunk space per action,
+      built as upstream builds it when reset from a state), so `set_state` replays exactly; it
+      equals upstream's reload-then-step to 1e-9 (upstream's uninterrupted runs also carry
+      Chipmunk's cached contact impulses between actions, which its state vector lacks).
+    * Kept option, off by default: `controller="linear"` (the robot moves exactly by the commanded
+      deltas over `action_seconds`, reports the commanded average velocity, and transitions that
+      leave an object outside the world are discarded, `env.num_physics_reverts`).
 
     ## References
     KinDER (RSS 2026), the Dynamic2D environments; pymunk (Chipmunk2D).
