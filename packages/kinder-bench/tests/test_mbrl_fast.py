@@ -107,6 +107,6 @@ def test_batched_mbrl_planner_gives_the_plain_actions_on_motion2d(tmp_path: Path
     plain, plain_agent = _actions(env_id, {**args, "batched": False}, 5)
     fast, fast_agent = _actions(env_id, args, 5)
     rollouts = fast_agent._fast
-    assert isinstance(rollouts, LearnedModelRollouts) and rollouts._goal is not None
+    assert isinstance(rollouts, LearnedModelRollouts) and rollouts._world is not None
     np.testing.assert_array_equal(plain, fast)
     assert plain_agent.num_model_steps == fast_agent.num_model_steps

@@ -106,9 +106,19 @@ def test_fast_path_gives_the_plain_actions_on_motion2d() -> None:
     assert plain_steps == fast_steps
 
 
-def test_families_without_a_batched_world_keep_the_plain_loop() -> None:
-    env = make_env("kinder/StickButton2D-b1-v0")
-    agent = make_agent("mpc", env, {"horizon": 5}, seed=0)
+def test_fast_path_gives_the_plain_actions_on_stickbutton2d() -> None:
+    """StickButton2D's reward is 0 on the terminating step: the batched world's reward too."""
+    env_id = "kinder/StickButton2D-b1-v0"
+    args = {"horizon": 25, "num_rollouts": 8}
+    plain, plain_steps, _ = _actions(env_id, {**args, "batched": False}, 4)
+    fast, fast_steps, agent = _actions(env_id, args, 4)
+    assert isinstance(agent._fast, BatchedWorldRollouts)
+    np.testing.assert_array_equal(plain, fast)
+    assert plain_steps == fast_steps
+
+
+def test_envs_without_a_fast_model_keep_the_plain_loop(toy_id: str) -> None:
+    agent = make_agent("mpc", make_env(toy_id), {"horizon": 5}, seed=0)
     assert isinstance(agent, MPCAgent) and agent._fast is None
 
 

@@ -30,8 +30,9 @@ Planning speed: the agent scores the MPC's candidates together (:class:`LearnedM
 with the MPC's ``batched`` argument, the default): one model call per step for all live
 candidates, each of whose rows is computed exactly as a one-row call computes it (a stack of
 one-row products, not one matrix product, whose BLAS kernel may round differently), the goal
-check vectorised on the Kinematic2D families with a batched world and the −1 reward without a
-call where the env does not override it. The costs, hence the actions, equal the one-by-one loop's.
+check and reward vectorised on the Kinematic2D families (their batched worlds) and the −1 reward
+without a call where another env does not override it. The costs, hence the actions, equal
+the one-by-one loop's.
 
 Held-out evaluation (:func:`open_loop_errors`): a deterministic 10% of the episodes (at least one)
 is held out; from every start frame the model is rolled out open loop for ``k`` steps on the
@@ -59,7 +60,7 @@ from kinder_bench.baselines.mpc import (
     MPCAgent,
     MPCArgs,
     RolloutModel,
-    batched_goal,
+    batched_world_of,
     lockstep_costs,
 )
 from kinder_bench.results import package_versions, write_json
@@ -551,7 +552,7 @@ class LearnedModelRollouts:
         self.layout = box.layout
         order = [box.layout.index(o, f) for o in box.objects for f in o.type.features]
         self._to_layout = np.argsort(np.asarray(order, dtype=np.intp))
-        self._goal = batched_goal(model)
+        self._world = batched_world_of(model)
         self._default_reward = type(model).reward is ObjectCentricEnv.reward
 
     def costs(self, state: Any, plans: FloatArray) -> tuple[FloatArray, int]:
@@ -564,14 +565,16 @@ class LearnedModelRollouts:
             nxt = vecs.copy()
             nxt[:, index] = agent.delta_model.predict(vecs[:, index], actions, row_stable=True)
             data = nxt[:, self._to_layout]
-            if self._goal is not None:
-                terminated: BoolArray = np.asarray(self._goal(data), dtype=bool)
+            if self._world is not None:
+                terminated: BoolArray = np.asarray(self._world.goal(data), dtype=bool)
             else:
                 terminated = np.array(
                     [model.goal_reached(ObjectCentricState(layout, d)) for d in data]
                 )
-            if self._default_reward:
-                rewards: FloatArray = np.full(len(nxt), -1.0)
+            if self._world is not None:
+                rewards: FloatArray = np.asarray(self._world.reward(terminated), dtype=np.float64)
+            elif self._default_reward:
+                rewards = np.full(len(nxt), -1.0)
             else:
                 rewards = np.array([
                     float(model.reward(ObjectCentricState(layout, v[self._to_layout]), a,

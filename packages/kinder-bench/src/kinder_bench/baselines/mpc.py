@@ -27,22 +27,21 @@ MBRL baseline (:mod:`kinder_bench.baselines.mbrl`) overrides to plan on a learne
 plain loop's): a solve scores its candidates through :meth:`MPCAgent.fast_model` when there is
 one, a :class:`RolloutModel` that rolls all candidates out together:
 
-* Kinematic2D families with a batched world (Motion2D, Obstruction2D, ClutteredRetrieval2D,
-  ClutteredStorage2D; :mod:`kinder_garden2d.kinematic2d.batched`, bit-for-bit the single env's
-  transition and goal) step all candidates in lockstep as one ``(N, D)`` array
-  (:class:`BatchedWorldRollouts`).
+* Kinematic2D families with a batched world (all of them today: Motion2D, Obstruction2D,
+  ClutteredRetrieval2D, ClutteredStorage2D, StickButton2D, PushPullHook2D;
+  :mod:`kinder_garden2d.kinematic2d.batched`, bit-for-bit the single env's transition, goal and
+  reward) step all candidates in lockstep as one ``(N, D)`` array (:class:`BatchedWorldRollouts`).
 * Dynamic3D (MuJoCo) rolls each candidate out on its own copy of the env in a thread pool
   (:class:`ThreadedCloneRollouts`): MuJoCo's ``mj_step`` releases the GIL, so the candidates'
   physics runs on as many cores as there are. ``mujoco.rollout`` is not used: it returns the
   physics state without the solver's warm start (``qacc_warmstart``), which this env's states
   carry from step to step, so chaining its one-step rollouts would not reproduce ``transition``.
-* Every other env (StickButton2D, Dynamic2D, Kinematic3D) keeps the plain loop.
+* Every other env (Dynamic2D, Kinematic3D) keeps the plain loop.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import os
 import pickle
 import sys
 import weakref
@@ -55,6 +54,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from kinder_bench.agents.base import Agent
+from kinder_bench.executors import available_cpus
 from kinder_core import ObjectCentricEnv, ObjectCentricState
 
 FloatArray = NDArray[np.float64]
@@ -81,7 +81,9 @@ class MPCArgs:
     """Roll the candidates out together where the model allows it (same costs, so same actions,
     as the plain one-by-one loop; see the module docstring)."""
     rollout_threads: int = 0
-    """Threads of the Dynamic3D fast path (0: one per CPU core, at most one per candidate)."""
+    """Threads of the Dynamic3D fast path (0: one per CPU this process may use, at most one per
+    candidate). With a process pool that already runs one episode per core, 1 avoids
+    oversubscribing the cores."""
 
     def __post_init__(self) -> None:
         checks = [
@@ -154,7 +156,7 @@ _STATIC_TABLES = ("static_obbs", "static_circles", "static_obb_aabb", "static_ci
 
 class BatchedWorldRollouts:
     """Candidates of a Kinematic2D env stepped together on its family's batched world (whose
-    transition, goal and −1 reward equal the single env's bit for bit)."""
+    transition, goal and reward equal the single env's bit for bit)."""
 
     def __init__(self, world: Any, low: FloatArray, high: FloatArray) -> None:
         self.world = world
@@ -221,7 +223,7 @@ class ThreadedCloneRollouts:
         if pool is None:
             pool = _POOLS[env] = _ClonePool(env)
         self._pool = pool
-        self.threads = max(1, min(threads or (os.cpu_count() or 1), num_rollouts))
+        self.threads = max(1, min(threads or available_cpus(), num_rollouts))
         self._pool.ensure(num_rollouts, self.threads)
 
     def costs(self, state: Any, plans: FloatArray) -> tuple[FloatArray, int]:
@@ -251,9 +253,10 @@ def plain_cost(
     return cost, len(plan)
 
 
-def _batched_world(env: ObjectCentricEnv) -> Any:
-    """The Kinematic2D family's batched world of ``env``, or None (another kind of env, or a
-    family without one)."""
+def batched_world_of(env: ObjectCentricEnv) -> Any:
+    """The Kinematic2D family's batched world of ``env`` (``transition``, ``goal`` and
+    ``reward`` over ``(N, D)`` state arrays, bit for bit the single env's), or None (another kind
+    of env, or a family without one)."""
     if not _instance_of(env, "kinder_garden2d.kinematic2d.base", "Kinematic2DEnv"):
         return None
     from kinder_garden2d.kinematic2d.batched.families import batched_world
@@ -264,23 +267,13 @@ def _batched_world(env: ObjectCentricEnv) -> Any:
         return None
 
 
-def batched_goal(env: ObjectCentricEnv) -> Callable[[FloatArray], BoolArray] | None:
-    """The env's ``goal_reached`` over ``(N, D)`` state arrays (layout order), bit for bit the
-    single env's, where it has one (the Kinematic2D families with a batched world), else None."""
-    world = _batched_world(env)
-    if world is None:
-        return None
-    goal: Callable[[FloatArray], BoolArray] = world.goal
-    return goal
-
-
 def env_fast_model(
     env: ObjectCentricEnv, args: MPCArgs, low: FloatArray, high: FloatArray
 ) -> RolloutModel | None:
     """The fast rollout model of an env (see the module docstring), or None (plain loop)."""
     if _instance_of(env, "kinder_garden3d.dynamic3d.env", "Dynamic3DEnv"):
         return ThreadedCloneRollouts(env, args.num_rollouts, args.rollout_threads)
-    world = _batched_world(env)
+    world = batched_world_of(env)
     return None if world is None else BatchedWorldRollouts(world, low, high)
 
 
