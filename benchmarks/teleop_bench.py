@@ -1,9 +1,10 @@
-"""Teleoperation figures: message→action latency and sustained control rate of the 3D web app,
-and frames per second of the 2D pygame window.
+"""Teleoperation figures: message→action latency and sustained control rate of the 3D web app
+(touch pads and the phone's AR pose path), and frames per second of the 2D pygame window.
 
 Usage:
     python benchmarks/teleop_bench.py web [--env kinder/BaseMotion3D-v0] [--hz 10] [--seconds 20]
         [--frame-every 3]
+    python benchmarks/teleop_bench.py phone [--env kinder/Shelf3D-o1-v0] [--hz 10] [--seconds 20]
     python benchmarks/teleop_bench.py window [--env kinder/Motion2D-p0-v0] [--ticks 400]
     python benchmarks/teleop_bench.py table RESULTS.jsonl   # the README tables of saved records
 
@@ -16,6 +17,14 @@ control rate at the requested ``hz``, and the largest sustainable rate (the same
 unthrottled: ``hz`` = 1000, every tick back to back, frames and status included), each with the
 camera frames rendered in a separate process (what ``kinder teleop --web`` does) and in the loop
 thread every ``--frame-every`` ticks.
+
+``phone`` compares the two phone paths driving the arm (the IK runs every tick) with camera
+frames in a separate process, as ``kinder teleop --web`` runs: an emulated phone in AR (a
+client sending the page's ``phone-ar`` messages, the raw viewer pose of a phone moving on a
+5 cm circle and turning ±0.3 rad, at the display rate of 60 Hz, finger on the arm zone) beside
+the touch pads' messages (the arm pad dragged on the same circle, at the page's 30 Hz). Same
+measures as ``web``, plus the share of ticks that stepped the env (control held), and first the
+server's cost per message of each path (``WebHub.handle_text`` and ``poll``, no network).
 
 ``window`` runs the 2D window with SDL's dummy video driver (software only, no display: a
 lower bound for a real window, which adds the compositor) unthrottled with a key held, and
@@ -35,7 +44,45 @@ import time
 from typing import Any
 
 
-def _client(url: str, stop: threading.Event, rate_hz: float) -> None:
+def _message(device: str, seq: int, t: float) -> dict[str, Any]:
+    """The input message ``device`` sends at time ``t`` (s) of the run."""
+    msg: dict[str, Any] = {"v": 2, "type": "input", "seq": seq, "sent": time.time() * 1000.0}
+    if device == "script":  # base and arm both moving
+        z = -0.3 * (1.0 - abs((t % 4.0) - 2.0) / 2.0)  # back and forth, 0 … −0.3 m
+        a = 0.05 * math.sin(2.0 * t)
+        msg |= {
+            "device": "script",
+            "engaged": ["base", "arm"],
+            "poses": {
+                "base": {"grab": 1, "p": [0.0, 0.0, z], "q": [0, 0, 0, 1]},
+                "arm": {"grab": 1, "p": [a, a, 0.0], "q": [0, 0, 0, 1]},
+            },
+        }
+        return msg
+    # The phone (or the finger on the arm pad) on a 5 cm circle; the AR phone also turns.
+    circle = [0.05 * math.cos(t), 0.05 * math.sin(t), -0.05 * math.sin(t)]
+    if device == "touch":
+        msg |= {
+            "device": "phone",
+            "engaged": ["arm"],
+            "poses": {"arm": {"grab": 1, "p": circle, "q": [0, 0, 0, 1]}},
+            "gripper": 0.0,
+        }
+        return msg
+    yaw = 0.3 * math.sin(0.5 * t)
+    msg |= {
+        "device": "phone-ar",
+        "engaged": ["arm"],
+        "viewer": {
+            "p": [circle[0], 1.4 + circle[1], circle[2]],
+            "q": [0.0, math.sin(yaw / 2), 0.0, math.cos(yaw / 2)],
+        },
+        "gripper": 0.0,
+    }
+    return msg
+
+
+def _client(url: str, stop: threading.Event, rate_hz: float, device: str = "script") -> None:
     from websockets.sync.client import connect
 
     with connect(url) as ws:
@@ -52,28 +99,19 @@ def _client(url: str, stop: threading.Event, rate_hz: float) -> None:
         reader = threading.Thread(target=drain, daemon=True)
         reader.start()
         while not stop.is_set():
-            t = time.perf_counter() - t0
-            z = -0.3 * (1.0 - abs((t % 4.0) - 2.0) / 2.0)  # back and forth, 0 … −0.3 m
-            a = 0.05 * math.sin(2.0 * t)  # the hand moves too, so the IK runs every tick
-            msg = {
-                "v": 1,
-                "type": "input",
-                "seq": seq,
-                "sent": time.time() * 1000.0,
-                "device": "script",
-                "engaged": ["base", "arm"],
-                "poses": {
-                    "base": {"grab": 1, "p": [0.0, 0.0, z], "q": [0, 0, 0, 1]},
-                    "arm": {"grab": 1, "p": [a, a, 0.0], "q": [0, 0, 0, 1]},
-                },
-            }
-            ws.send(json.dumps(msg))
+            ws.send(json.dumps(_message(device, seq, time.perf_counter() - t0)))
             seq += 1
             time.sleep(1.0 / rate_hz)
 
 
 def bench_web(
-    env_id: str, hz: float, seconds: float, frame_every: int, frame_process: bool
+    env_id: str,
+    hz: float,
+    seconds: float,
+    frame_every: int,
+    frame_process: bool,
+    device: str = "script",
+    rate_hz: float = 60.0,
 ) -> dict[str, Any]:
     from kinder_gym.teleop.loop import latency_summary
     from kinder_gym.teleop.web.server import ServerThread, WebTeleop
@@ -85,7 +123,7 @@ def bench_web(
     port = server.start()
     stop = threading.Event()
     url = f"ws://127.0.0.1:{port}/ws?token={teleop.token}"
-    client = threading.Thread(target=_client, args=(url, stop, 60.0), daemon=True)
+    client = threading.Thread(target=_client, args=(url, stop, rate_hz, device), daemon=True)
     client.start()
     time.sleep(0.5)
     teleop.loop.latencies.clear()
@@ -118,6 +156,8 @@ def bench_web(
     return {
         "measure": "web",
         "env_id": env_id,
+        "device": device,
+        "message_hz": rate_hz,
         "hz_requested": hz,
         "frames": "process" if frame_process else f"loop thread every {frame_every} ticks",
         "frame_updates_per_s": round(frames / elapsed, 2),
@@ -125,8 +165,31 @@ def bench_web(
         "ticks": ticks,
         "control_hz": round(ticks / elapsed, 2),
         "env_steps": teleop.loop.total_steps - steps0,
+        "held": round((teleop.loop.total_steps - steps0) / max(ticks, 1), 3),
         "messages_received": teleop.hub.received,
         "latency": {k: round(v, 2) for k, v in latency_summary(teleop.loop.latencies).items()},
+    }
+
+
+def bench_hub(device: str, n: int = 20_000) -> dict[str, Any]:
+    """Server cost of one input message: ``WebHub.handle_text`` (parse, checks, the viewer
+    pose's clutch for AR) and one ``poll``, in microseconds per message."""
+    from kinder_gym.teleop.web.hub import WebHub
+
+    hub = WebHub(max_age=1e9)
+    cid = hub.connect()
+    texts = [json.dumps(_message(device, seq, seq / 60.0)) for seq in range(n)]
+    start = time.perf_counter()
+    for text in texts:
+        hub.handle_text(cid, text)
+        hub.poll(0.0)
+    elapsed = time.perf_counter() - start
+    return {
+        "measure": "hub",
+        "device": device,
+        "messages": n,
+        "bytes_per_message": round(sum(len(t) for t in texts) / n, 1),
+        "us_per_message": round(elapsed / n * 1e6, 2),
     }
 
 
@@ -164,14 +227,15 @@ def table(path: str) -> str:
     """Markdown tables of the records in ``path`` (one JSON object per line)."""
     with open(path) as f:
         rows = [json.loads(line) for line in f if line.strip()]
-    out = [
-        "| env | frames rendered | requested Hz | control Hz | latency mean / p50 / p95 / max ms "
-        "| frame updates/s |",
-        "|---|---|---|---|---|---|",
-    ]
-    for r in rows:
-        if r["measure"] != "web":
-            continue
+    web = [r for r in rows if r["measure"] == "web" and r.get("device", "script") == "script"]
+    out = []
+    if web:
+        out += [
+            "| env | frames rendered | requested Hz | control Hz | latency mean / p50 / p95 / "
+            "max ms | frame updates/s |",
+            "|---|---|---|---|---|---|",
+        ]
+    for r in web:
         lat = r["latency"]
         req = "unthrottled" if r["hz_requested"] > 100 else f"{r['hz_requested']:g}"
         where = "separate process" if r["frames"] == "process" else "loop thread, every 3 ticks"
@@ -179,13 +243,38 @@ def table(path: str) -> str:
             f"| {r['env_id']} | {where} | {req} | {r['control_hz']} | {lat['mean_ms']} / "
             f"{lat['p50_ms']} / {lat['p95_ms']} / {lat['max_ms']} | {r['frame_updates_per_s']} |"
         )
-    out += ["", "| env | window | requested Hz | frames per second |", "|---|---|---|---|"]
-    for r in rows:
+    phone = [r for r in rows if r["measure"] == "web" and r.get("device") in ("touch", "phone-ar")]
+    if phone:
+        out += [
+            "",
+            "| env | path | messages/s | requested Hz | control Hz | ticks stepped "
+            "| latency mean / p50 / p95 / max ms |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for r in phone:
+            lat = r["latency"]
+            path = "phone AR (viewer pose)" if r["device"] == "phone-ar" else "touch pads"
+            req = "unthrottled" if r["hz_requested"] > 100 else f"{r['hz_requested']:g}"
+            out.append(
+                f"| {r['env_id']} | {path} | {r['message_hz']:g} | {req} | {r['control_hz']} "
+                f"| {r['held']:.0%} | {lat['mean_ms']} / {lat['p50_ms']} / {lat['p95_ms']} / "
+                f"{lat['max_ms']} |"
+            )
+    hub = [r for r in rows if r["measure"] == "hub"]
+    if hub:
+        out += ["", "| path | bytes per message | server µs per message |", "|---|---|---|"]
+    for r in hub:
+        path = "phone AR (viewer pose)" if r["device"] == "phone-ar" else "touch pads"
+        out.append(f"| {path} | {r['bytes_per_message']} | {r['us_per_message']} |")
+    windows = [r for r in rows if r["measure"] == "window"]
+    if windows:
+        out += ["", "| env | window | requested Hz | frames per second |", "|---|---|---|---|"]
+    for r in windows:
         if r["measure"] == "window":
             req = "unthrottled" if r["hz_requested"] > 100 else f"{r['hz_requested']:g}"
             size = "×".join(str(v) for v in r["window"])
             out.append(f"| {r['env_id']} | {size} | {req} | {r['fps']} |")
-    return "\n".join(out)
+    return "\n".join(out).strip()
 
 
 def main() -> None:
@@ -196,6 +285,10 @@ def main() -> None:
     web.add_argument("--hz", type=float, default=10.0)
     web.add_argument("--seconds", type=float, default=20.0)
     web.add_argument("--frame-every", type=int, default=3)
+    phone = sub.add_parser("phone")
+    phone.add_argument("--env", default="kinder/Shelf3D-o1-v0")
+    phone.add_argument("--hz", type=float, default=10.0)
+    phone.add_argument("--seconds", type=float, default=20.0)
     window = sub.add_parser("window")
     window.add_argument("--env", default="kinder/Motion2D-p0-v0")
     window.add_argument("--ticks", type=int, default=400)
@@ -208,6 +301,13 @@ def main() -> None:
         for frame_process in (True, False):
             for hz in (args.hz, 1000.0):
                 record = bench_web(args.env, hz, args.seconds, args.frame_every, frame_process)
+                print(json.dumps(record), flush=True)
+    elif args.what == "phone":
+        for device in ("phone-ar", "touch"):
+            print(json.dumps(bench_hub(device)), flush=True)
+        for hz in (args.hz, 1000.0):
+            for device, rate in (("phone-ar", 60.0), ("touch", 30.0)):
+                record = bench_web(args.env, hz, args.seconds, 0, True, device, rate)
                 print(json.dumps(record), flush=True)
     else:
         for record in bench_window(args.env, args.ticks):

@@ -169,6 +169,7 @@ def robot_axes(v: np.ndarray) -> np.ndarray:
     return np.array([-v[2], -v[0], v[1]])
 
 
+@pytest.mark.slow  # about a minute: two emulated XR pages rendering in software
 @pytest.mark.skipif(not IWER.exists(), reason="npm package iwer not installed (npm ci)")
 def test_phone_moves_the_arm_while_a_second_phone_drives_the_base(
     server: tuple[WebTeleop, str, list[EpisodeRecord]], browser: Any
