@@ -7,22 +7,32 @@ background thread. It prints the URL (with a random session token) and a QR code
 Routes (every one needs ``?token=<session token>``; a wrong token gets 403 / close code 1008):
 
 * ``GET /`` — the page (``static/index.html``: no external assets, plain WebSocket, Pointer
-  Events). Phone: an arm pad (drag = hand forward/left, the strip at its edge = up/down), a base
-  pad (drag = drive, the strip at its bottom = turn), a gripper slider and Save/Discard/Restart
-  buttons; motion is relative to where the finger went down (a clutch). WebXR headset ("Enter
-  VR"): the left controller's grip drives the base, the right's the hand, each while its grip
-  (squeeze) button is held (the deadman); the right trigger closes the gripper; A saves,
-  B discards. The page shows the live camera views (in VR on a panel in front of the user).
-* ``WS /ws`` — the protocol of :mod:`kinder_gym.teleop.web.protocol`.
+  Events). Phone with WebXR AR ("Move the phone (AR)", an ``immersive-ar`` session): the
+  phone's raw viewer pose is sent every XR frame; holding the arm zone makes the hand follow
+  the phone's motion 1:1, holding the base strip the base (TidyBot++'s teleop; the server
+  captures the reference, :mod:`kinder_gym.teleop.web.viewer`); lifting the finger freezes the
+  target; a gripper slider and Save/Discard/Restart/Exit AR buttons sit on the AR view. Where
+  the browser has no AR session the page says so and offers the touch pads: an arm pad (drag =
+  hand forward/left, the strip at its edge = up/down), a base pad (drag = drive, the strip at
+  its bottom = turn), a gripper slider and Save/Discard/Restart buttons; motion is relative to
+  where the finger went down (a clutch). WebXR headset ("Enter VR"): the left controller's grip
+  drives the base, the right's the hand, each while its grip (squeeze) button is held (the
+  deadman); the right trigger closes the gripper; A saves, B discards. The page shows the live
+  camera views (in VR on a panel in front of the user). Several pages may connect: each channel
+  (arm, base) is driven by one of them at a time (:mod:`kinder_gym.teleop.web.hub`).
+* ``WS /ws`` — the protocol of :mod:`kinder_gym.teleop.web.protocol` (text or binary frames of
+  at most :data:`~kinder_gym.teleop.web.protocol.MAX_MESSAGE_BYTES`; larger ones get an error
+  reply, up to uvicorn's 16 MiB frame limit, beyond which it closes the connection with 1009).
 * ``GET /frame/{camera}.jpg`` — the newest JPEG of a camera (rendered in a separate process
   from the loop's newest state, :mod:`kinder_gym.teleop.web.frames`); the status messages list
   the cameras that have frames.
-* ``GET /status`` — the loop's status as JSON.
+* ``GET /status`` — the loop's status as JSON (with the measured base pose ``base`` and the
+  hand's pose in the base frame ``ee``: position and quaternion x, y, z, w).
 
 Default bind address 127.0.0.1; pass ``host="0.0.0.0"`` to reach it from a phone on the LAN.
 Browsers only grant WebXR on secure origins: ``localhost`` is one, a LAN address needs HTTPS
 (``ssl_certfile``/``ssl_keyfile``, e.g. a self-signed certificate). The phone's touch pads work
-over plain HTTP.
+over plain HTTP. :func:`serve` stops cleanly on Ctrl+C or SIGTERM (after the current tick).
 """
 
 from __future__ import annotations
