@@ -28,7 +28,7 @@ from kinder_garden3d.kinematic3d.geometry import quat_multiply, yaw_quat
 from kinder_gym.teleop.mapper3d import Limits, TidyBotTeleop, ee_pose_in_base
 from kinder_gym.teleop.web.hub import WebHub
 from kinder_gym.teleop.web.protocol import MAX_MESSAGE_BYTES, VERSION, ProtocolError, parse_message
-from kinder_gym.teleop.web.server import create_app
+from kinder_gym.teleop.web.server import ServerThread, create_app
 from kinder_gym.teleop.web.viewer import DEFAULT_CENTRE_OFFSET, ViewerClutch, quat_rotate
 
 Vec = tuple[float, float, float]
@@ -182,6 +182,20 @@ def test_size_limit_error_reply_changes_nothing() -> None:
         assert hub.received == 1 and hub.dropped == 0
         # The connection lives on: the next message (even as a binary frame) is taken.
         assert reply(ar(2, (0.0, 1.0, -0.1)).encode())["type"] == "ack"
+    # The same through the real server (uvicorn): its frame limit is above 2 MB, so the 2 MB
+    # message reaches the hub and gets the error reply.
+    from websockets.sync.client import connect
+
+    http = ServerThread(app)
+    port = http.start()
+    try:
+        with connect(f"ws://127.0.0.1:{port}/ws?token=tok", max_size=None) as ws:
+            ws.send(big)
+            while (data := json.loads(ws.recv(timeout=30)))["type"] in ("hello", "status"):
+                pass
+            assert data["type"] == "error" and "larger than the limit" in data["message"]
+    finally:
+        http.stop()
 
 
 @pytest.fixture
