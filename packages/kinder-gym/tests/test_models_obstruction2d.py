@@ -92,7 +92,7 @@ def test_grounding() -> None:
 def test_skills_reach_their_predictions() -> None:
     env = make_object_centric("kinder/Obstruction2D-o2-v0")
     model = create_model(env)
-    state = env.reset(seed=3)[0]
+    state = env.reset(seed=1028)[0]
     atoms = sorted_atoms(model.abstract(state))
     # This seed has obstruction0 on the surface and obstruction1 overlapping it.
     assert "(OnTarget obstruction0)" in atoms and "(Clear obstruction1)" not in atoms
@@ -109,7 +109,7 @@ def test_skills_reach_their_predictions() -> None:
 def test_place_on_target_fails_while_blocked() -> None:
     env = make_object_centric("kinder/Obstruction2D-o1-v0")
     model = create_model(env)
-    state = env.reset(seed=3)[0]
+    state = env.reset(seed=1012)[0]
     # The obstruction lies on the surface and the target block is too wide to fit beside it.
     assert "(OnTarget obstruction0)" in sorted_atoms(model.abstract(state))
     state = _run(model, state, "PickFromTable(robot, target_block)")
