@@ -6,7 +6,6 @@ same actions), pass through SB3's ``VecCheckNan`` and ``VecNormalize``, and trai
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -18,9 +17,9 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import DummyVecEnv, VecCheckNan, VecEnv, VecNormalize
 
 from kinder_bench.baselines.rl.batched import BatchedVecEnv
-from kinder_bench.baselines.rl.checkpoints import MODEL_FILE, VECNORM_FILE
 from kinder_bench.baselines.rl.envs import make_rl_env
-from kinder_bench.baselines.rl.train import make_train_args, make_venv, resolve, train
+from kinder_bench.baselines.rl.train import make_train_args, make_venv, resolve
+from kinder_garden2d.kinematic2d.motion2d import Motion2DConfig
 
 
 def _same_infos(a: list[dict[str, Any]], b: list[dict[str, Any]]) -> None:
@@ -106,35 +105,32 @@ def test_batched_refuses_other_envs_and_dense_reward() -> None:
 
 
 @pytest.mark.slow
-def test_ppo_learns_a_toy_variant_with_the_batched_env(tmp_path: Path) -> None:
-    """Motion2D-p0 with 60-step episodes (the target lies about 1.9 to the right of the start:
-    38 steps at full speed, so only a policy that heads for it succeeds): PPO's deterministic
-    success rate after 60k steps beats the random policy's by 0.3."""
-    args = make_train_args(
-        "ppo",
-        {
-            "env_id": "Motion2D-p0",
-            "vec_env": "batched",
-            "n_envs": 32,
-            "n_steps": 64,
-            "batch_size": 256,
-            "hidden_size": 32,
-            "num_layers": 2,
-            "total_steps": 60_000,
-            "max_episode_steps": 60,
-            "seed": 2200,
-            "log_every": 20_000,
-            "checkpoint_every": 60_000,
-        },
+def test_ppo_learns_a_toy_variant_with_the_batched_env() -> None:
+    """A toy Motion2D-p0: the robot starts 0.3-0.4 left of the target region, at its height,
+    with 30-step episodes. PPO (a small MLP, 24k steps on 32 batched sub-envs) learns to drive
+    into the region: its deterministic success rate beats the random policy's by 0.5."""
+    config = Motion2DConfig(
+        robot_init_x=(1.85, 1.9), robot_init_y=(1.05, 1.15), target_init_y=(1.0, 1.05)
     )
-    result = train("ppo", args, tmp_path / "run", progress=False)
-    model = PPO.load(result.checkpoint / MODEL_FILE, device="cpu")
+
+    def make(n: int) -> BatchedVecEnv:
+        return BatchedVecEnv("kinder/Motion2D-p0-v0", n, 30, config=config)
+
+    model = PPO(
+        "MlpPolicy",
+        make(32),
+        n_steps=64,
+        batch_size=256,
+        n_epochs=5,
+        learning_rate=1e-3,
+        policy_kwargs={"net_arch": [32, 32]},
+        seed=2200,
+        device="cpu",
+    )
+    model.learn(24_576)
 
     def success_rate(act: Any) -> float:
-        env = VecNormalize.load(
-            str(result.checkpoint / VECNORM_FILE), BatchedVecEnv("kinder/Motion2D-p0-v0", 64, 60)
-        )
-        env.training = False
+        env = make(64)
         env.seed(2300)
         obs = env.reset()
         successes = episodes = 0
@@ -148,4 +144,4 @@ def test_ppo_learns_a_toy_variant_with_the_batched_env(tmp_path: Path) -> None:
     rng = np.random.default_rng(2300)
     random = success_rate(lambda obs: rng.uniform(-1, 1, (64, 5)).astype(np.float32))
     learned = success_rate(lambda obs: model.predict(obs, deterministic=True)[0])
-    assert learned > random + 0.3, (learned, random)
+    assert learned > random + 0.5, (learned, random)

@@ -41,12 +41,14 @@ class BatchedVecEnv(VecEnv):
         env_id: A registered Kinematic2D id.
         n_envs: How many sub-envs.
         max_episode_steps: The training episode limit (``TimeLimit``).
+        **env_kwargs: Constructor arguments of the single env that replace the id's own
+            (``config=Motion2DConfig(...)``).
 
     Raises:
         ValueError: for an id that has no batched env.
     """
 
-    def __init__(self, env_id: str, n_envs: int, max_episode_steps: int) -> None:
+    def __init__(self, env_id: str, n_envs: int, max_episode_steps: int, **env_kwargs: Any) -> None:
         ensure_registered(env_id)
         spec = gymnasium.spec(env_id)
         if spec.vector_entry_point is None:
@@ -59,6 +61,7 @@ class BatchedVecEnv(VecEnv):
             n_envs,
             vectorization_mode="vector_entry_point",
             max_episode_steps=max_episode_steps,
+            **env_kwargs,
         )
         if not isinstance(venv, Kinematic2DVectorEnv):
             raise ValueError(f"{env_id}'s vector env is not a Kinematic2DVectorEnv")

@@ -184,6 +184,8 @@ class BatchedWorld:
     def movable_bodies(self, data: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``(N, Bm, 6)`` boxes and ``(N, Cm, 3)`` circles of the movable objects."""
         n = len(data)
+        if not self.num_movable:
+            return np.zeros((n, 0, 6)), np.zeros((n, 0, 3))
         r = data[:, self._rect_idx]
         parts = [anchored_obbs(r[..., 0], r[..., 1], r[..., 2], r[..., 3], r[..., 4])]
         if self._l_idx.size:
@@ -242,14 +244,17 @@ class BatchedWorld:
     def transition(self, data: FloatArray, action: FloatArray) -> FloatArray:
         """The next states ``(N, D)`` of states ``data`` under clipped actions ``(N, 5)``."""
         robot = data[:, self.robot_idx]
-        x, y, th, br, aj, al, _, gh, gw = robot.T
-        dx, dy, dth, darm, vac = action.T
+        x, y, th, br, aj, al, _, gh, gw = np.ascontiguousarray(robot.T)
+        dx, dy, dth, darm, vac = np.ascontiguousarray(action.T)
         mov_obbs, mov_circ = self.movable_bodies(data)
         held = self.suctioned(data, mov_obbs, mov_circ)
         new: FloatArray = data.copy()
         nth = np.mod(th + dth + np.pi, 2 * np.pi) - np.pi
         naj = np.minimum(np.maximum(aj + darm, br), al)
-        new[:, self.robot_idx] = np.stack([x + dx, y + dy, nth, br, naj, al, vac, gh, gw], -1)
+        nx, ny = x + dx, y + dy
+        ix, iy, ith, _, iaj, _, ivac, _, _ = self.robot_idx
+        for i, v in ((ix, nx), (iy, ny), (ith, nth), (iaj, naj), (ivac, vac)):
+            new[:, i] = v
         moving = held
         rows = np.flatnonzero(held.any(axis=1))
         if rows.size:
@@ -259,7 +264,8 @@ class BatchedWorld:
             pushed = self.push(new, held)
             moving = held | pushed
             rows = np.flatnonzero(moving.any(axis=1))
-        collide = self._collides(new, moving, rows, mov_obbs, mov_circ)
+        moved_robot = np.stack([nx, ny, nth, br, naj, al, vac, gh, gw])
+        collide = self._collides(new, moved_robot, moving, rows, mov_obbs, mov_circ)
         new[collide] = data[collide]
         return new
 
@@ -299,21 +305,22 @@ class BatchedWorld:
     def _collides(
         self,
         new: FloatArray,
+        robot: FloatArray,
         moving: BoolArray,
         rows: IntArray,
         old_obbs: FloatArray,
         old_circ: FloatArray,
     ) -> BoolArray:
-        """``(N,)``: does the robot of ``new``, or a ``moving`` object (only sub-envs ``rows``
-        have any), collide with a static body or a non-moving object (``_moving_collides``)?
+        """``(N,)``: does the robot of ``new`` (its features ``robot``, ``(9, N)``), or a
+        ``moving`` object (only sub-envs ``rows`` have any), collide with a static body or a
+        non-moving object (``_moving_collides``)?
 
         The obstacles are the static bodies and the movable objects' bodies before the step
         (the non-moving ones have not moved). Only the (mover, obstacle) pairs whose obstacle
         passes the single env's broad phase and whose layers may collide get the exact test.
         """
         n = len(new)
-        robot = new[:, self.robot_idx]
-        x, y, _, br, aj, _, _, gh, gw = robot.T
+        x, y, _, br, aj, _, _, gh, gw = robot
         reach = np.maximum(br, py_hypot(aj + 0.5 * gw, 0.5 * gh))
         box = np.stack([x - reach, x + reach, y - reach, y + reach], -1)
         m_obb = moving[:, self._obb_owner]
@@ -327,38 +334,47 @@ class BatchedWorld:
             b[:, 0::2] = np.minimum(b[:, 0::2], np.where(mask, lo[..., 0::2], np.inf).min(axis=1))
             b[:, 1::2] = np.maximum(b[:, 1::2], np.where(mask, lo[..., 1::2], -np.inf).max(axis=1))
             box[rows] = b
-        obst_obbs = np.concatenate([self.static_obbs, old_obbs], axis=1)
-        obst_circ = np.concatenate([self.static_circles, old_circ], axis=1)
-        keep_obb = np.concatenate(
-            [np.ones_like(self.static_obbs[..., 0], dtype=bool), ~m_obb & self._m_collidable_obb],
-            axis=1,
-        )
-        keep_circ = np.concatenate(
-            [
-                np.ones_like(self.static_circles[..., 0], dtype=bool),
-                ~m_circ & self._m_collidable_circ,
-            ],
-            axis=1,
-        )
-        aabb_obb = np.concatenate([self.static_obb_aabb, obbs_aabb(old_obbs)], axis=1)
-        aabb_circ = np.concatenate([self.static_circ_aabb, circles_aabb(old_circ)], axis=1)
-        cand_obb = aabb_hits(aabb_obb, box) & keep_obb
-        cand_circ = aabb_hits(aabb_circ, box) & keep_circ
-        ro, rc = self.robot_bodies(robot)
+        if self.num_movable:
+            obst_obbs = np.concatenate([self.static_obbs, old_obbs], axis=1)
+            obst_circ = np.concatenate([self.static_circles, old_circ], axis=1)
+            keep_obb = ~m_obb & self._m_collidable_obb
+            keep_circ = ~m_circ & self._m_collidable_circ
+            cand_obb = np.concatenate(
+                [
+                    aabb_hits(self.static_obb_aabb, box),
+                    aabb_hits(obbs_aabb(old_obbs), box) & keep_obb,
+                ],
+                axis=1,
+            )
+            cand_circ = np.concatenate(
+                [
+                    aabb_hits(self.static_circ_aabb, box),
+                    aabb_hits(circles_aabb(old_circ), box) & keep_circ,
+                ],
+                axis=1,
+            )
+        else:
+            obst_obbs, obst_circ = self.static_obbs, self.static_circles
+            cand_obb = aabb_hits(self.static_obb_aabb, box)
+            cand_circ = aabb_hits(self.static_circ_aabb, box)
         hit = np.zeros(n, dtype=bool)
-        _hits(
-            hit,
-            np.arange(n),
-            ro,
-            None,
-            rc,
-            None,
-            obst_obbs,
-            cand_obb,
-            obst_circ,
-            cand_circ,
-            self._may_robot,
-        )
+        # The robot's exact tests, only for sub-envs with a candidate obstacle.
+        near = np.flatnonzero(cand_obb.any(axis=1) | cand_circ.any(axis=1))
+        if near.size:
+            ro, rc = self.robot_bodies(robot[:, near].T)
+            _hits(
+                hit,
+                near,
+                ro,
+                None,
+                rc,
+                None,
+                obst_obbs[near],
+                cand_obb[near],
+                obst_circ[near],
+                cand_circ[near],
+                self._may_robot,
+            )
         if rows.size:
             _hits(
                 hit,
