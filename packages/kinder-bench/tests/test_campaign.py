@@ -97,6 +97,8 @@ def test_a_tiny_campaign_runs_then_resumes_without_doing_anything(tmp_path: Path
     status = json.loads((out / "campaign.json").read_text())["cells"]
     assert all(s["finished"] and s["episodes_done"] == 2 for s in status.values())
     assert status["mbrl/BenchReach"]["train"]["budget"] == "2 epochs"
+    config = json.loads((out / "eval" / "config.json").read_text())
+    assert sorted(r["training"] for r in config["runs"]) == ["", "2 epochs"]
     assert (out / "eval" / "summary.csv").exists()
 
     second = run_campaign(load_campaign(path), out, train_fn=train, **kwargs)  # type: ignore[arg-type]

@@ -27,7 +27,8 @@ on a list of envs (``"paper"``: the paper's eight), so a method × env grid is o
     args = { dataset = "datasets/{env}/data/lerobot", epochs = 1000, progress = false }
     per_seed = false              # true: one model per run seed (PPO, SAC)
     checkpoint_arg = "checkpoint" # the agent argument that receives the training directory
-    budget = "1000 epochs"        # the training budget in words, recorded with the cell
+    budget = "1000 epochs"        # the training budget in words: the run's `training` (the
+                                  # summary rows'; a paper cell needs the paper's budget text)
 
 Strings in the training arguments may name ``{env}`` (short id, ``Motion2D-p0``), ``{env_id}``
 and, with ``per_seed``, ``{seed}``. A cell's models go to ``OUT/train/<cell>/<env>[/seed<S>]``;
@@ -111,8 +112,9 @@ class Cell:
         if self.train is not None:
             seed = "{seed}" if self.train.per_seed else None
             args[self.train.checkpoint_arg] = str(self.train_dir(out, seed))
+        training = self.train.budget if self.train is not None else ""
         return RunConfig(self.env_id, self.agent, args, self.seeds, self.episodes,
-                         self.max_steps, self.label)  # fmt: skip
+                         self.max_steps, self.label, training)  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)
