@@ -370,3 +370,61 @@ def test_a_signal_stops_the_server_cleanly_and_keeps_saved_episodes(
     assert "Traceback" not in err and "Error" not in err, err
     assert "SERVED 1" in out
     assert len(list((tmp_path / "episodes").glob("*.npz"))) == 1
+
+
+def test_an_interrupted_grab_never_jumps(shelf: Any) -> None:
+    """Samples going stale mid-grab release the deadman; when they resume, an AR phone's motion
+    continues from a new reference and a touch pad's grab (numbered by the device) stays
+    frozen until the finger grabs again."""
+    clock = Clock()
+    hub = WebHub(clock=clock, claim_after=1)
+    mapper = TidyBotTeleop(shelf, hz=10)
+    phone = hub.connect()
+    hub.handle_text(phone, ar(0, (0.0, 1.4, 0.0)))
+    drive(hub, mapper, shelf, clock, 1)
+    hub.handle_text(phone, ar(1, (0.0, 1.4, -0.05)))
+    drive(hub, mapper, shelf, clock, 10)
+    clock.t += 0.3  # a Wi-Fi hiccup: the sample is stale, the loop pauses
+    assert drive(hub, mapper, shelf, clock, 1).action is None
+    paused = mapper.ee_p.copy()
+    hub.handle_text(phone, ar(2, (0.0, 1.4, -0.12)))  # the phone moved 7 cm meanwhile
+    drive(hub, mapper, shelf, clock, 1)
+    np.testing.assert_allclose(mapper.ee_p, paused, atol=1e-12)  # a new reference: no jump
+    hub.handle_text(phone, ar(3, (0.0, 1.4, -0.14)))
+    drive(hub, mapper, shelf, clock, 1)
+    np.testing.assert_allclose(mapper.ee_p, paused + np.array([0.02, 0.0, 0.0]), atol=1e-12)
+
+    touch = hub.connect()
+
+    def pad(seq: int, grab: int, z: float) -> str:
+        return json.dumps(
+            {
+                "v": VERSION,
+                "type": "input",
+                "seq": seq,
+                "device": "phone",
+                "engaged": ["base"],
+                "poses": {"base": {"grab": grab, "p": [0.0, 0.0, z]}},
+            }
+        )
+
+    hub.handle_text(touch, pad(0, 1, 0.0))
+    drive(hub, mapper, shelf, clock, 1)
+    hub.handle_text(touch, pad(1, 1, -0.04))
+    drive(hub, mapper, shelf, clock, 2)
+    clock.t += 0.3
+    drive(hub, mapper, shelf, clock, 1)
+    held = mapper.base_target.copy()
+    hub.handle_text(touch, pad(2, 1, -0.3))  # the same grab resumes: frozen
+    drive(hub, mapper, shelf, clock, 3)
+    np.testing.assert_allclose(mapper.base_target, held, atol=1e-12)
+    hub.handle_text(touch, pad(3, 2, 0.0))  # the finger grabs again: moves from there
+    drive(hub, mapper, shelf, clock, 1)
+    hub.handle_text(touch, pad(4, 2, -0.02))
+    drive(hub, mapper, shelf, clock, 1)
+    yaw = held[2]
+    np.testing.assert_allclose(
+        mapper.base_target[:2] - held[:2],
+        0.02 * np.array([math.cos(yaw), math.sin(yaw)]),
+        atol=1e-6,
+    )

@@ -215,8 +215,11 @@ class TidyBotTeleop:
         self.ee_p, self.ee_q = ee_pose_in_base(arm)
         self.gripper = 0.0
         # Grabs seen before this reset are over: a device still holding one must grab again.
-        self._ended = dict(getattr(self, "_last_grab", {}))
-        self._last_grab: dict[str, int] = dict(self._ended)
+        ended: dict[str, set[int]] = getattr(self, "_ended", {})
+        for channel, grab in getattr(self, "_last_grab", {}).items():
+            ended.setdefault(channel, set()).add(grab)
+        self._ended = ended
+        self._last_grab: dict[str, int] = {}
         self._clutch: dict[str, _Clutch] = {}
         self._ik_target: tuple[FloatArray, FloatArray] | None = None
         self._ik_goal = arm
@@ -262,11 +265,11 @@ class TidyBotTeleop:
         lim = self.limits
         for channel in ("base", "arm"):
             engaged = channel in s.engaged and channel in s.poses
-            if engaged and s.poses[channel].grab == self._ended.get(channel):
+            if engaged and s.poses[channel].grab in self._ended.get(channel, ()):
                 engaged = False  # an interrupted grab: wait for a new one
             if not engaged:
                 if channel in self._clutch:
-                    self._ended[channel] = self._clutch.pop(channel).grab
+                    self._ended.setdefault(channel, set()).add(self._clutch.pop(channel).grab)
                     self._hold(base, arm, (channel,))
                 continue
             pose = s.poses[channel]
@@ -276,6 +279,7 @@ class TidyBotTeleop:
             ref = self._clutch.get(channel)
             if ref is None or ref.grab != pose.grab:
                 if ref is not None:  # a new grab without a release in between: hold first
+                    self._ended.setdefault(channel, set()).add(ref.grab)
                     self._hold(base, arm, (channel,))
                 robot_ref = (
                     (base.copy(), yaw_quat(float(base[2])))

@@ -119,7 +119,7 @@ class WebHub:
         self._grab_ids = itertools.count(1)
         self._connections: dict[int, _Connection] = {}
         self._held: dict[str, _Held] = {}
-        self._grabs: dict[str, tuple[tuple[int, int], int]] = {}
+        self._grabs: dict[str, dict[tuple[int, int], int]] = {}
         self._events: set[str] = set()
         self._status: dict[str, Any] = {}
         self._frames: dict[str, bytes] = {}
@@ -153,12 +153,11 @@ class WebHub:
             return [c for c in POSE_CHANNELS if self._owner(c, now) == cid]
 
     def _grab(self, channel: str, cid: int, client_grab: int) -> int:
-        """The hub's grab number for grab ``client_grab`` of connection ``cid``."""
-        key = (cid, client_grab)
-        known = self._grabs.get(channel)
-        if known is None or known[0] != key:
-            known = self._grabs[channel] = (key, next(self._grab_ids))
-        return known[1]
+        """The hub's grab number for grab ``client_grab`` of connection ``cid`` (the same one
+        every time, so a grab that lost the channel and takes it back is still the interrupted
+        grab, which the mapper does not resume)."""
+        known = self._grabs.setdefault(channel, {})
+        return known.setdefault((cid, client_grab), next(self._grab_ids))
 
     def handle_text(self, cid: int, text: str | bytes) -> dict[str, Any]:
         """Handle one message of connection ``cid``; returns the reply to send."""
