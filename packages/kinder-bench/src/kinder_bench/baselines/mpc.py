@@ -33,9 +33,10 @@ one, a :class:`RolloutModel` that rolls all candidates out together:
   reward) step all candidates in lockstep as one ``(N, D)`` array (:class:`BatchedWorldRollouts`).
 * Dynamic3D (MuJoCo) rolls each candidate out on its own copy of the env in a thread pool
   (:class:`ThreadedCloneRollouts`): MuJoCo's ``mj_step`` releases the GIL, so the candidates'
-  physics runs on as many cores as there are. ``mujoco.rollout`` is not used: it returns the
-  physics state without the solver's warm start (``qacc_warmstart``), which this env's states
-  carry from step to step, so chaining its one-step rollouts would not reproduce ``transition``.
+  physics runs on as many cores as there are. ``mujoco.rollout`` is not used: its states leave
+  out the fixtures' mocap poses and the solver's warm start, which this env's states carry, and
+  the env's controller (``ctrl = qpos + delta`` every env step) rules out one open-loop rollout
+  over the horizon; the copies run the env's own ``transition``, exact by construction.
 * Every other env (Dynamic2D, Kinematic3D) keeps the plain loop.
 """
 
