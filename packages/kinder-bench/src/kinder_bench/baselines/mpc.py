@@ -187,16 +187,16 @@ class BatchedWorldRollouts:
 class _ClonePool:
     """Copies of one env (rebuilt from its pickle) and the threads that roll them out."""
 
-    def __init__(self, env: ObjectCentricEnv) -> None:
-        self.env = env
+    def __init__(self) -> None:
         self.clones: list[ObjectCentricEnv] = []
         self.pool: ThreadPoolExecutor | None = None
         self.threads = 1
 
-    def ensure(self, clones: int, threads: int) -> None:
-        """At least ``clones`` copies and a pool of exactly ``threads`` threads."""
+    def ensure(self, env: ObjectCentricEnv, clones: int, threads: int) -> None:
+        """At least ``clones`` copies of ``env`` and a pool of exactly ``threads`` threads (the
+        pool holds no reference to ``env``, so that the weak registry below can drop it)."""
         while len(self.clones) < clones:
-            clone = pickle.loads(pickle.dumps(self.env))
+            clone = pickle.loads(pickle.dumps(env))
             assert isinstance(clone, ObjectCentricEnv)
             self.clones.append(clone)
         if threads != self.threads:
@@ -222,10 +222,10 @@ class ThreadedCloneRollouts:
     def __init__(self, env: ObjectCentricEnv, num_rollouts: int, threads: int) -> None:
         pool = _POOLS.get(env)
         if pool is None:
-            pool = _POOLS[env] = _ClonePool(env)
+            pool = _POOLS[env] = _ClonePool()
         self._pool = pool
         self.threads = max(1, min(threads or available_cpus(), num_rollouts))
-        self._pool.ensure(num_rollouts, self.threads)
+        self._pool.ensure(env, num_rollouts, self.threads)
 
     def costs(self, state: Any, plans: FloatArray) -> tuple[FloatArray, int]:
         clones = self._pool.clones
