@@ -36,16 +36,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import pybullet as pb
 from numpy.typing import NDArray
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, ObjectCentricStateSpace
 from kinder_core.state import FloatArray
 from kinder_garden3d.kinematic3d.geometry import (
     Part,
-    compose,
     cuboid_parts,
-    invert,
-    normalize_quat,
     triangle_parts,
 )
 from kinder_garden3d.kinematic3d.object_types import (
@@ -469,7 +467,7 @@ class Kinematic3DEnv(ObjectCentricEnv):
 
     def _held_world_pose(self, grasp_tf: tuple[Array, Array]) -> tuple[Array, Array]:
         ee_p, ee_q = self._scene.ee_pose()
-        return compose(ee_p, ee_q, grasp_tf[0], grasp_tf[1])
+        return _pb_compose(ee_p, ee_q, grasp_tf[0], grasp_tf[1])
 
     def _sweep_collides(
         self,
@@ -510,6 +508,7 @@ class Kinematic3DEnv(ObjectCentricEnv):
         grasp_tf: tuple[Array, Array],
     ) -> None:
         robot = state[self.robot]
+        q0 = robot[_CONFIG].copy()
         q = q1.copy()
         q[2] = _wrap(q[2])
         if self.config.wrap_joints:
@@ -517,15 +516,15 @@ class Kinematic3DEnv(ObjectCentricEnv):
         robot[_CONFIG] = q
         if held is None:
             return
+        # As upstream: each carried object keeps its transform in the end-effector frame.
+        self._scene.set_robot(q0)
+        ee_inv = _pb_invert(*self._scene.ee_pose())
+        in_ee = [_pb_compose(*ee_inv, state[obj][:3], state[obj][3:7]) for obj in carried]
         self._scene.set_robot(q1)
-        old_p, old_q = state[held][:3].copy(), state[held][3:7].copy()
-        new_p, new_q = self._held_world_pose(grasp_tf)
-        new_q = normalize_quat(new_q)
-        state[held][:3], state[held][3:7] = new_p, new_q
-        delta_p, delta_q = compose(new_p, new_q, *invert(old_p, old_q))
-        for obj in carried:
-            p, qq = compose(delta_p, delta_q, state[obj][:3], state[obj][3:7])
-            state[obj][:3], state[obj][3:7] = p, normalize_quat(qq)
+        state[held][:3], state[held][3:7] = self._held_world_pose(grasp_tf)
+        ee_p, ee_q = self._scene.ee_pose()
+        for obj, (p, qq) in zip(carried, in_ee, strict=True):
+            state[obj][:3], state[obj][3:7] = _pb_compose(ee_p, ee_q, p, qq)
 
     def _try_grasp(self, state: ObjectCentricState) -> None:
         """Grasp the one movable object within reach of the grasp marker, as upstream does.
@@ -559,10 +558,10 @@ class Kinematic3DEnv(ObjectCentricEnv):
             scene.set_robot(robot[_CONFIG], start)
             return
         ee_p, ee_q = scene.ee_pose()
-        tf_p, tf_q = compose(*invert(ee_p, ee_q), state[obj][:3], state[obj][3:7])
+        tf_p, tf_q = _pb_compose(*_pb_invert(ee_p, ee_q), state[obj][:3], state[obj][3:7])
         robot[_FINGER] = s
         robot[_GRASP] = 1.0
-        robot[_TF] = [*tf_p, *normalize_quat(tf_q)]
+        robot[_TF] = [*tf_p, *tf_q]
         state[obj][7] = 1.0
 
     def _try_release(self, state: ObjectCentricState, held: Object, carried: list[Object]) -> None:
@@ -618,6 +617,21 @@ class Kinematic3DEnv(ObjectCentricEnv):
             f"{type(self).__name__}: could not sample {what} in {self.config.max_reset_tries} "
             f"tries; relax the configuration (fewer objects or larger regions)"
         )
+
+
+def _pb_compose(p1: Array, q1: Array, p2: Array, q2: Array) -> tuple[Array, Array]:
+    """``(p1, q1) ∘ (p2, q2)`` with pybullet's ``multiplyTransforms``, which upstream uses for the
+    grasp transform and held objects (it computes in single precision and returns the rotation's
+    quaternion in Bullet's sign convention; matching it keeps our features equal to upstream's)."""
+    a, b = [float(v) for v in p1], [float(v) for v in q1]
+    p, q = pb.multiplyTransforms(a, b, [float(v) for v in p2], [float(v) for v in q2])
+    return np.array(p, dtype=np.float64), np.array(q, dtype=np.float64)
+
+
+def _pb_invert(p: Array, q: Array) -> tuple[Array, Array]:
+    """The inverse transform with pybullet's ``invertTransform`` (see :func:`_pb_compose`)."""
+    ip, iq = pb.invertTransform([float(v) for v in p], [float(v) for v in q])
+    return np.array(ip, dtype=np.float64), np.array(iq, dtype=np.float64)
 
 
 def _wrap(angle: float) -> float:

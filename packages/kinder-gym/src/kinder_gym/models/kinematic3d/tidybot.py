@@ -170,6 +170,7 @@ class ConfigChecker:
             if o is not None
         }
         self.checks = 0
+        self._self_collision: dict[tuple[float, ...], bool] = {}
 
     def state_at(self, config: Sequence[float] | FloatArray) -> ObjectCentricState:
         """The state with the robot at ``config`` (held objects carried along)."""
@@ -189,8 +190,13 @@ class ConfigChecker:
     def __call__(self, config: Sequence[float] | FloatArray) -> bool:
         self.checks += 1
         state = self.state_at(config)
-        if self.env.config.check_self_collisions and self.env.self_collision(state):  # type: ignore[attr-defined]
-            return False
+        if self.env.config.check_self_collisions:  # type: ignore[attr-defined]
+            # Self-collision depends on the arm alone: base motions reuse one verdict.
+            arm = tuple(float(v) for v in np.asarray(config)[3:10])
+            if arm not in self._self_collision:
+                self._self_collision[arm] = bool(self.env.self_collision(state))  # type: ignore[attr-defined]
+            if self._self_collision[arm]:
+                return False
         pairs = self.env.penetrations(state)  # type: ignore[attr-defined]
         # Only contacts between something that moves and something that does not count.
         return all((a in self.moving) == (b in self.moving) for a, b in pairs)

@@ -33,6 +33,7 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.kinematic3d.base_env import CONTAINER_MIN_HALF_EXTENT
 from kinder_garden3d.kinematic3d.geometry import quat_to_matrix
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
@@ -58,6 +59,8 @@ from kinder_gym.skills import Skill, SkillFailure
 APPROACH = 0.12
 #: Centre height from which an object counts as on the table (the env's goal threshold).
 TABLE_Z = 0.3
+#: How far past the objects (and the robot) the base may be planned to go (metres).
+PLANNING_MARGIN = 1.0
 
 
 def _yaw_of(q: FloatArray) -> float:
@@ -92,9 +95,8 @@ class ReachController(TidyBotController):
             wps += [self._wp(p) for p in path]
             q = path[-1]
         # 2. Drive to the standoff.
-        x0, x1, y0, y1 = env.config.world_bounds
         if np.max(np.abs(config_delta(q[:3], base_goal))) > 1e-6:
-            path = base_path(checker, q, base_goal, (x0, x1, y0, y1), seed)
+            path = base_path(checker, q, base_goal, self.planning_bounds(state), seed)
             wps += [self._wp(p) for p in path]
             q = path[-1]
         # 3. Reach above, then down (IK seeded from the retract pose, then from the approach).
@@ -111,12 +113,27 @@ class ReachController(TidyBotController):
         wps.append(self._wp(q_above))
         return wps
 
+    def planning_bounds(self, state: ObjectCentricState) -> tuple[float, float, float, float]:
+        """Where the base may go while planning: the box around the robot and every cuboid,
+        grown by ``PLANNING_MARGIN`` and kept within the env's world bounds (which are far
+        larger than the scene: ±10 m)."""
+        xs = [float(state[o][0]) for o in state if o.type in (ROBOT_TYPE, CUBOID_TYPE)]
+        ys = [float(state[o][1]) for o in state if o.type in (ROBOT_TYPE, CUBOID_TYPE)]
+        x0, x1, y0, y1 = self.context.config.world_bounds
+        m = PLANNING_MARGIN
+        return (
+            max(x0, min(xs) - m),
+            min(x1, max(xs) + m),
+            max(y0, min(ys) - m),
+            min(y1, max(ys) + m),
+        )
+
     def _standoff(
         self, state: ObjectCentricState, point: FloatArray, dist: float, angle: float
     ) -> FloatArray:
         """A base pose ``dist`` from ``point`` facing it, approaching from direction ``angle``."""
         x, y = point[0] - dist * math.cos(angle), point[1] - dist * math.sin(angle)
-        x0, x1, y0, y1 = self.context.config.world_bounds
+        x0, x1, y0, y1 = self.planning_bounds(state)
         if not (x0 < x < x1 and y0 < y < y1):
             raise SkillFailure(f"{type(self).__name__}: standoff ({x:.2f}, {y:.2f}) out of bounds")
         return np.array([x, y, wrap(angle)])
@@ -144,7 +161,10 @@ class PickController(ReachController):
         angle = math.atan2(pos[1] - base[1], pos[0] - base[0]) + offset
         obj_yaw = _yaw_of(np.asarray(f[3:7]))
         half = np.asarray(f[9:12], dtype=np.float64)
-        if f[8] > 0:  # a container: grasp the top of the wall nearest the robot
+        # Upstream's object_type is −1 for every cuboid; a container is what the env carries
+        # things in (every half extent above CONTAINER_MIN_HALF_EXTENT).
+        container = bool(np.all(half > CONTAINER_MIN_HALF_EXTENT))
+        if container:  # grasp the top of the wall nearest the robot
             c, s = math.cos(obj_yaw), math.sin(obj_yaw)
             local = np.array([math.cos(angle + math.pi), math.sin(angle + math.pi)])
             lx, ly = c * local[0] + s * local[1], -s * local[0] + c * local[1]
@@ -166,7 +186,7 @@ class PickController(ReachController):
             close_dir = obj_yaw
         # Fingers close along ee_yaw + π/2: across the wall for the box (two yaws), across any
         # pair of faces for a cube (four yaws); take the one closest to the approach direction.
-        turns = (0, 2) if f[8] > 0 else (0, 1, 2, 3)
+        turns = (0, 2) if container else (0, 1, 2, 3)
         candidates = [close_dir - math.pi / 2 + k * math.pi / 2 for k in turns]
         ee_yaw = min(candidates, key=lambda y: abs(wrap(y - angle)))
         base_goal = self._standoff(state, grasp, dist, angle)
