@@ -11,7 +11,8 @@ Three layers, each testable alone:
   (:class:`~kinder_gym.demos.record.EpisodeRecorder`).
 
 Front ends: :mod:`.gui2d` (pygame window for 2D, and the 3D keyboard/gamepad fallback) and
-:mod:`.web` (FastAPI + WebSocket page for phones and WebXR headsets), chosen per env by
+:mod:`.web` (FastAPI + WebSocket page for phones — moved in an AR session or driven by touch
+pads — and WebXR headsets), chosen per env by
 :mod:`.app` (what ``kinder teleop`` runs). :mod:`.saving` writes each saved episode as an atomic
 file and appends them to a LeRobot dataset. The front ends need the ``teleop`` extra
 (``pip install "kinder-gym[teleop]"``; 3D also ``[3d]``); this package's import pulls none of
