@@ -21,15 +21,18 @@ from kinder_bench.paper import (
     NOT_IN_RUNS,
     NOT_RUN,
     PAPER,
+    PRE_CONFORMANCE,
     VARIANTS_ONLY,
     Result,
     at_paper_protocol,
     compare,
     load_paper,
+    load_pre_conformance,
     load_settings,
     paper_markdown,
     paper_settings,
     parse_paper,
+    parse_pre_conformance,
     parse_settings,
     protocol_deviations,
     results_from_csv,
@@ -274,6 +277,29 @@ def test_only_a_run_at_the_papers_protocol_fills_a_cell(fixture_run: Path, tmp_p
     assert protocol_deviations(fm) == ()
     lines = dataclasses.replace(fm, agent_args={**(fm.agent_args or {}), "parameter_lines": True})
     assert variant_name(lines) == "LLMPlan · parameter_lines=true"
+
+
+def test_a_run_measured_before_its_env_followed_upstream_is_a_variant(
+    fixture_run: Path, tmp_path: Path
+) -> None:
+    _, paths = write_report([fixture_run], tmp_path)
+    results = results_from_csv(paths["csv"])
+    bp = _at_protocol(next(r for r in results if r.agent == "bilevel_planning"))
+    listed = sorted(load_pre_conformance())
+    assert listed and all(env != MOTION for _, env in listed)  # Motion2D-p0 did not change
+    run_id, env_id = listed[0]
+    old = dataclasses.replace(_at_protocol(dataclasses.replace(bp, env_id=env_id)), run_id=run_id)
+    assert protocol_deviations(old) == (PRE_CONFORMANCE,) and not at_paper_protocol(old)
+    # The same run id on another env, or another run on that env, is not listed.
+    assert PRE_CONFORMANCE not in protocol_deviations(dataclasses.replace(old, run_id="0" * 12))
+    header = "run_id,env_id,changed_at\n"
+    assert parse_pre_conformance(header + "# a comment\nabc,kinder/X-v0,78dd850\n") == {
+        ("abc", "kinder/X-v0")
+    }
+    with pytest.raises(ValueError, match="expected the header"):
+        parse_pre_conformance("run,env\n")
+    with pytest.raises(ValueError, match="data row 1"):
+        parse_pre_conformance(header + "abc,kinder/X-v0\n")
 
 
 def test_the_paper_settings_file_is_checked() -> None:

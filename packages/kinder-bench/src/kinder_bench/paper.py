@@ -7,21 +7,21 @@ from run directories (:func:`results_from_summaries`) or from committed ``summar
 (:func:`results_from_csv`), so the same table comes from a fresh run and from
 ``benchmarks/results/``.
 
-One rule decides what fills a cell beside the paper: a run at the paper's protocol, i.e. seeds
-0–4 × 50 episodes, the protocol's step budget (:mod:`kinder_bench.protocol`), the baseline's
-paper settings and its paper training budget (``kinder_bench/data/paper_settings.csv``, loaded by
+One rule decides what fills a cell beside the paper: a run at the paper's protocol, i.e. seeds 0–4
+× 50 episodes, the protocol's step budget (:mod:`kinder_bench.protocol`), the baseline's paper
+settings and its paper training budget (``kinder_bench/data/paper_settings.csv``, loaded by
 :func:`load_settings`). :func:`protocol_deviations` lists what a run's recorded settings (seeds,
 episodes, step budget, agent arguments, training budget) do differently; a run with none, labelled
-with its agent's name and measured by us (not transcribed from a page), is at the paper's
-protocol. Every other run is a variant, named by what differs (:func:`variant_name`:
-``MPC · 2×2, horizon=20``) and listed in its own row with its budget, never in the paper's
-column. A paper cell is therefore at the paper's protocol, covered by variants only, or not run
-(``n/r``) — and only then does it say why, as a lettered note under the table: the agent's own
-:meth:`~kinder_bench.agents.Agent.unavailable` reason (a checkpoint, an endpoint, a GPU, a
-planning model), that no such agent exists here, or that it can run here but is not in the given
-runs. When several runs of one agent at the paper's protocol cover a paper env, the one with the
-most episodes fills the cell and the others are listed as variants.
-"""
+with its agent's name and measured by us (not transcribed from a page) on the env as it is now (not
+listed in ``kinder_bench/data/pre_conformance_runs.csv``, the runs measured before their env was
+made to follow upstream), is at the paper's protocol. Every other run is a variant, named by what
+differs (:func:`variant_name`: ``MPC · 2×2, horizon=20``) and listed in its own row with its
+budget, never in the paper's column. A paper cell is therefore at the paper's protocol, covered by
+variants only, or not run (``n/r``) — and only then does it say why, as a lettered note under the
+table: the agent's own :meth:`~kinder_bench.agents.Agent.unavailable` reason (a checkpoint, an
+endpoint, a GPU, a planning model), that no such agent exists here, or that it can run here but is
+not in the given runs. When several runs of one agent at the paper's protocol cover a paper env,
+the one with the most episodes fills the cell and the others are listed as variants."""
 
 from __future__ import annotations
 
@@ -354,6 +354,44 @@ def paper_settings(agent: str, env_id: str, settings: Settings | None = None) ->
     return out
 
 
+PRE_CONFORMANCE_FILE = "pre_conformance_runs.csv"
+_PRE_CONFORMANCE_COLUMNS = ("run_id", "env_id", "changed_at")
+
+
+def parse_pre_conformance(
+    text: str, source: str = PRE_CONFORMANCE_FILE
+) -> frozenset[tuple[str, str]]:
+    """The (run id, env id) pairs of a pre-conformance list (``#`` lines are comments).
+
+    Raises ValueError naming the line when a row lacks a field or the header is not
+    ``run_id,env_id,changed_at``.
+    """
+    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
+    rows = list(csv.reader(lines))
+    if not rows or tuple(rows[0]) != _PRE_CONFORMANCE_COLUMNS:
+        raise ValueError(f"{source}: expected the header {','.join(_PRE_CONFORMANCE_COLUMNS)}")
+    out = set()
+    for n, row in enumerate(rows[1:], start=2):
+        if len(row) != len(_PRE_CONFORMANCE_COLUMNS) or not all(f.strip() for f in row):
+            raise ValueError(
+                f"{source}: data row {n - 1}: expected run_id,env_id,changed_at, got {row}"
+            )
+        out.add((row[0].strip(), row[1].strip()))
+    return frozenset(out)
+
+
+@functools.cache
+def load_pre_conformance() -> frozenset[tuple[str, str]]:
+    """Committed runs measured on an env that has changed since, to follow upstream (the
+    package's data file says which and why)."""
+    data = resources.files("kinder_bench.data").joinpath(PRE_CONFORMANCE_FILE)
+    return parse_pre_conformance(data.read_text(encoding="utf-8"))
+
+
+#: How :func:`protocol_deviations` names a run measured before its env followed upstream.
+PRE_CONFORMANCE = "env before upstream conformance"
+
+
 def _value_text(value: Any) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -403,6 +441,8 @@ def protocol_deviations(result: Result, settings: Settings | None = None) -> tup
         out.append(f"training {result.training}" if result.training else "training not recorded")
     if result.provenance:
         out.append("transcribed")
+    if (result.run_id, result.env_id) in load_pre_conformance():
+        out.append(PRE_CONFORMANCE)
     return tuple(out)
 
 
