@@ -153,7 +153,10 @@ def test_templates_expand_per_index():
     task = load_task("Shelf3D/Shelf3D.json", num_objects=3)
     assert list(task.objects) == ["cube1", "cube2", "cube3"]
     assert task.objects["cube1"].params["rgba"] != task.objects["cube2"].params["rgba"]
-    assert [p[1] for p in task.initial_state] == ["cube1", "cube2", "cube3"]
+    assert [p[1] for p in task.initial_state] == ["cupboard_1", "cube1", "cube2", "cube3"]
+    assert [p[2] for p in task.initial_state][1:] == [
+        f"ground_{i}_object_init_region" for i in (1, 2, 3)
+    ]
     assert task.goal[0] == "and" and len(task.goal[1]) == 3
     assert task.instruction.startswith("Pick up the 3 cube(s)")
     sort = load_task(

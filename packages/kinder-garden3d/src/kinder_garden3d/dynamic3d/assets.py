@@ -328,18 +328,40 @@ def _screw(name: str, p: Params) -> ObjectAsset:
 
 
 def _wiper(name: str, p: Params) -> ObjectAsset:
-    """A wiper / broom lying flat: a handle along x and a head across it at +x."""
+    """A wiper / broom lying flat: a handle along x and a head across it.
+
+    ``head_side`` puts the head at the handle's ``"+x"`` or ``"-x"`` end (upstream
+    kindergarden 0.2.5's wiper has it at -x); ``origin`` is the body frame: ``"centre"`` (the
+    bounding-box centre, as every other object) or ``"bottom"`` (the centre of the bottom face,
+    upstream's wiper frame, so the observed ``z`` is the height of the surface it rests on).
+    """
     hl, hw = float(p["handle_length"]), float(p["handle_width"])
     head_l, head_h, head_w = (
         float(p["head_length"]),
         float(p["head_height"]),
         float(p["head_width"]),
     )
+    if p["head_side"] not in ("+x", "-x"):
+        raise ValueError(f"wiper {name!r}: head_side must be '+x' or '-x', got {p['head_side']!r}")
+    if p["origin"] not in ("centre", "bottom"):
+        raise ValueError(
+            f"wiper {name!r}: origin must be 'centre' or 'bottom', got {p['origin']!r}"
+        )
+    sign = 1.0 if p["head_side"] == "+x" else -1.0
     parts = [
-        _Box((hl / 2, 0, head_h - hw / 2), (hl, hw, hw), p["handle_rgba"]),
-        _Box((hl + head_w / 2, 0, head_h / 2), (head_w, head_l, head_h), p["head_rgba"]),
+        _Box((sign * hl / 2, 0, head_h - hw / 2), (hl, hw, hw), p["handle_rgba"]),
+        _Box((sign * (hl + head_w / 2), 0, head_h / 2), (head_w, head_l, head_h), p["head_rgba"]),
     ]
-    return _simple(name, parts, p["mass"], p["friction"])
+    if p["origin"] == "centre":
+        return _simple(name, parts, p["mass"], p["friction"])
+    parts, size = _centred(parts)
+    lift = float(size[2] / 2.0)  # bottom face at z = 0
+    parts = [
+        _Box(_vec3(np.array(q.centre) + np.array([0.0, 0.0, lift])), q.size, q.rgba, q.kind,
+             q.euler, q.collide)
+        for q in parts
+    ]  # fmt: skip
+    return ObjectAsset(_parts_xml(name, parts, p["mass"], p["friction"]), size, 0.0)
 
 
 def _scoop(name: str, p: Params) -> ObjectAsset:
@@ -462,7 +484,8 @@ OBJECT_TYPES: dict[str, tuple[Callable[[str, Params], ObjectAsset], Params]] = {
         _wiper,
         {"handle_length": 0.3, "handle_width": 0.02, "head_length": 0.3, "head_height": 0.04,
          "head_width": 0.03, "mass": 0.3, "handle_rgba": [0.9, 0.9, 0.9, 1.0],
-         "head_rgba": [0.1, 0.1, 0.1, 1.0], "friction": _FRICTION},
+         "head_rgba": [0.1, 0.1, 0.1, 1.0], "friction": _FRICTION, "head_side": "+x",
+         "origin": "centre"},
     ),
     "scoop": (
         _scoop,

@@ -28,7 +28,7 @@ from kinder_garden3d.dynamic3d.object_types import (
 from kinder_garden3d.dynamic3d.predicates import GoalEvaluator, Regions
 from kinder_garden3d.dynamic3d.scene import ARM_KD, ARM_KP, ROBOT_PREFIX, Scene, build_scene
 from kinder_garden3d.dynamic3d.taskfile import ROBOT, TaskSpec, load_task
-from kinder_garden3d.robot.description import GRIPPER_STROKE, RETRACT, robot_description
+from kinder_garden3d.robot.description import GRIPPER_STROKE, robot_description
 
 # Headless rendering: EGL unless the user chose a backend (osmesa, glfw) before importing.
 # PyOpenGL must agree; set it here too in case OpenGL is imported before MuJoCo's own GL setup.
@@ -45,6 +45,12 @@ _SIM_STATE_SPEC = int(
 )
 _FINGER_TRAVEL = GRIPPER_STROKE / 2.0  # slide of one finger pad from open to closed
 _PENETRATION_TOL = 1e-4
+#: The arm's configuration at reset: upstream kindergarden 0.2.5's TidyBot retract pose,
+#: (0, -20, 180, -146, 0, -50, 90) degrees (joint 3 at +pi, where the shared robot model's
+#: ``RETRACT`` has the same pose with -pi and rounded joints 2, 4 and 6).
+HOME_ARM: tuple[float, ...] = tuple(
+    math.radians(a) for a in (0.0, -20.0, 180.0, -146.0, 0.0, -50.0, 90.0)
+)
 _CONES = {"elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC, "pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL}
 
 
@@ -164,8 +170,10 @@ class Dynamic3DEnv(ObjectCentricEnv):
     Fixtures and objects are placed by the task's initial-state predicates (`on`/`in` a
     region): a box of the region is drawn, then a point and a yaw in it, with rejection of
     colliding poses (bounded tries, then a RuntimeError). The robot is placed by its own
-    predicate, or uniformly in x, y ∈ [−1, 1] with any yaw; its arm starts retracted and the
-    gripper open. Ten all-zero actions then let the scene settle; layouts whose settled state
+    predicate, or uniformly in x, y ∈ [−1, 1] with any yaw; its arm starts in upstream's retract
+    pose (0, −20, 180, −146, 0, −50, 90)° (`HOME_ARM`) and the gripper open. A region box's z
+    range is a drop height: fixtures are placed at it (upstream draws a floor fixture's height
+    in [0, 0.1] m) and objects are released from it above their support. Ten all-zero actions then let the scene settle; layouts whose settled state
     already satisfies the goal (or has an object below the floor) are resampled.
 
     ## Episode End
@@ -211,6 +219,11 @@ class Dynamic3DEnv(ObjectCentricEnv):
 
     ## Version History
     * v0: initial release.
+    * v0 (upstream conformance): Shelf3D and SweepIntoDrawer3D draw upstream kindergarden
+      0.2.5's regions, sizes and masses (each task file's notes say which); the arm starts in
+      upstream's retract pose (joint 3 at +π, joints 2, 4, 6 at −20°, −146°, −50°; it was the
+      robot model's rounded `RETRACT` with joint 3 at −π). Checked against recorded upstream
+      resets by `tests/test_conformance_dynamic3d.py`.
     * v0 (contact update): elliptic friction cones and `impratio = 10` as upstream's robot
       models (MuJoCo's pyramidal cone and 1 before; `Dynamic3DConfig(cone="pyramidal",
       impratio=1)` restores them). A held 2 cm cube slipped about 0.9 mm/s out of the pads
@@ -527,7 +540,14 @@ class Dynamic3DEnv(ObjectCentricEnv):
             if self.goal_reached(state):
                 problem = "the settled layout already satisfied the goal"
                 continue
-            z = [state.get(self.objects[n], "z") for n in self.task.objects]
+            # The height of each object's bounding-box centre (a wiper's frame may be its
+            # bottom face): below the floor means it fell through while settling.
+            z = [
+                state.get(self.objects[n], "z")
+                - self.scene.objects[n].bottom
+                + self.scene.objects[n].bbox[2] / 2.0
+                for n in self.task.objects
+            ]
             if z and min(z) < 0.0:
                 problem = "an object fell below the floor while settling"
                 continue
@@ -541,7 +561,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
         m, d = self.model, self.data
         self._cache = None  # MjData no longer holds any state handed out
         mujoco.mj_resetData(m, d)
-        d.qpos[self._q_arm] = RETRACT
+        d.qpos[self._q_arm] = HOME_ARM
         d.qpos[self._q_base] = (-80.0, -80.0, 0.0)  # parked until the robot is placed
         self._fixture_boxes: list[tuple[str, Array, Array]] = []
         for name, spec in self.task.fixtures.items():
