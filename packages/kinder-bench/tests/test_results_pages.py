@@ -8,9 +8,15 @@ from pathlib import Path
 
 import pytest
 
+from kinder_bench.agents import agent_class
 from kinder_bench.metrics import Stat
 from kinder_bench.paper import Result, results_from_csv
-from kinder_bench.results_doc import summary_files, unbacked_quotes
+from kinder_bench.results_doc import (
+    attribution_markdown,
+    heldout_markdown,
+    summary_files,
+    unbacked_quotes,
+)
 
 REPO = Path(__file__).resolve().parents[3]
 MOTION = "kinder/Motion2D-p0-v0"
@@ -74,3 +80,48 @@ def test_the_guard_finds_tables_and_prose_and_spares_the_papers_figures() -> Non
     quote = "| Env | Metric | ppo-dense |\n|---|---|---|\n| Motion2D-p0 | SR ↑ | 0.68 |"
     assert unbacked_quotes({"p.md": quote}, [dense]) == []
     assert len(unbacked_quotes({"p.md": quote}, [_row(MOTION, "sac")])) == 1
+
+
+def _bp(seeds: tuple[int, ...], sr: float, **args: object) -> Result:
+    defaults = dataclasses.asdict(agent_class("bilevel_planning").Args())
+    stat = Stat(sr, 0.02, len(seeds))
+    return dataclasses.replace(
+        _row(BUTTON, "bilevel_planning"),
+        success=stat,
+        seeds=seeds,
+        num_seeds=len(seeds),
+        episodes=50 * len(seeds),
+        max_steps=200,
+        agent_args={**defaults, **args},
+        run_id=f"{sr:.2f}{seeds[0]:08d}"[:12],
+    )
+
+
+PAPER_BP = {"refinement_rounds": 1, "replan_on_divergence": False, "respect_episode_limit": False}
+
+
+def test_heldout_table_pairs_the_same_run_on_unseen_seeds_and_marks_a_gap() -> None:
+    evaluation = _bp((0, 1, 2, 3, 4), 0.90)
+    heldout = _bp((100, 101, 102, 103, 104), 0.80)
+    other_args = _bp((100, 101, 102, 103, 104), 0.10, samples_per_step=7)
+    table = heldout_markdown([evaluation, heldout, other_args], [BUTTON, MOTION])
+    (row,) = [line for line in table.splitlines() if line.startswith("| StickButton2D-b1")]
+    assert "0.90 ± 0.02" in row and "0.80 ± 0.02" in row and "100–104" in row
+    assert "-0.10 (larger than the std)" in row
+    assert "| Motion2D-p0 | -- | not run | not run |" in table
+    # A transcribed row or one measured before its env followed upstream is never paired.
+    gone = dataclasses.replace(heldout, provenance="transcribed from x.md @ abc")
+    assert "not run" in heldout_markdown([evaluation, gone], [BUTTON])
+
+
+def test_attribution_table_sets_the_papers_bp_beside_our_default() -> None:
+    ours = _bp((0, 1, 2, 3, 4), 0.98)
+    paper_bp = _bp((0, 1, 2, 3, 4), 0.60, **PAPER_BP)
+    table = attribution_markdown([ours, paper_bp], [BUTTON, MOTION])
+    assert "| StickButton2D-b1 | 0.60 ± 0.02 | 0.98 ± 0.02 | +0.38 |" in table
+    assert "| Motion2D-p0 | not run | not run | -- |" in table
+    # Held-out seeds never stand in for the evaluation seeds.
+    later = dataclasses.replace(paper_bp, seeds=(100, 101, 102, 103, 104))
+    assert "| StickButton2D-b1 | not run | 0.98 ± 0.02 | -- |" in attribution_markdown(
+        [ours, later], [BUTTON]
+    )
