@@ -54,7 +54,9 @@ def test_obstructions_mostly_start_on_the_region():
             total += 1
             on_region += bool(abs(state[obs][2] - state[obs][11] - top) < 1e-9)
     env.close()
-    assert 0.8 < on_region / total <= 1.0
+    # The coin says 0.9 per try, but crowded regions reject more on-region draws: 303 of 400
+    # obstructions on seeds 0-99, as upstream's own resets (the same states, seed for seed).
+    assert 0.7 < on_region / total < 0.9
 
 
 def test_packing_parts_start_outside_the_expanded_rack_footprint():

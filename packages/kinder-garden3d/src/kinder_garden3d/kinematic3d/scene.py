@@ -447,3 +447,58 @@ class PyBulletScene:
         )
         rgba = np.asarray(out[2], dtype=np.uint8).reshape(height, width, 4)
         return np.ascontiguousarray(rgba[:, :, :3])
+
+
+class BoxProbe:
+    """Contact tests between axis-aligned boxes with pybullet's own closest-point query, in a
+    private DIRECT client (connected on first use).
+
+    Resets that must reproduce upstream's rejection sampling ask pybullet whether two boxes
+    touch, as upstream does: pybullet misses penetrations shallower than about 0.1 mm between
+    boxes, so an exact geometric test would reject draws that upstream keeps.
+    """
+
+    def __init__(self) -> None:
+        self._client: int | None = None
+        self._bodies: dict[tuple[float, float, float], list[int]] = {}
+
+    def _body(self, half: tuple[float, float, float], slot: int) -> int:
+        if self._client is None:
+            cid = pb.connect(pb.DIRECT)
+            if cid < 0:
+                raise RuntimeError("pybullet could not open a DIRECT client")
+            self._client = cid
+        bodies = self._bodies.setdefault(half, [])
+        while len(bodies) <= slot:
+            shape = pb.createCollisionShape(
+                pb.GEOM_BOX, halfExtents=list(half), physicsClientId=self._client
+            )
+            bodies.append(pb.createMultiBody(0.0, shape, -1, physicsClientId=self._client))
+        return bodies[slot]
+
+    def touch(self, c1: Array, h1: Array, c2: Array, h2: Array, distance: float) -> bool:
+        """Whether boxes (centre, half extents) come within ``distance`` by pybullet's query."""
+        k1 = (float(h1[0]), float(h1[1]), float(h1[2]))
+        k2 = (float(h2[0]), float(h2[1]), float(h2[2]))
+        a = self._body(k1, 0)
+        b = self._body(k2, 1 if k2 == k1 else 0)
+        cid = self._client
+        pb.resetBasePositionAndOrientation(
+            a, [float(v) for v in c1], [0, 0, 0, 1], physicsClientId=cid
+        )
+        pb.resetBasePositionAndOrientation(
+            b, [float(v) for v in c2], [0, 0, 0, 1], physicsClientId=cid
+        )
+        return bool(pb.getClosestPoints(a, b, distance, physicsClientId=cid))
+
+    def close(self) -> None:
+        """Disconnect the client (idempotent)."""
+        if self._client is not None:
+            with contextlib.suppress(pb.error):
+                pb.disconnect(physicsClientId=self._client)
+            self._client = None
+            self._bodies = {}
+
+    def __del__(self) -> None:
+        with contextlib.suppress(Exception):
+            self.close()

@@ -16,9 +16,9 @@ from kinder_garden3d.kinematic3d.base_env import (
     Kinematic3DEnv,
     Rgba,
 )
-from kinder_garden3d.kinematic3d.geometry import Part, rect_distance_2d
+from kinder_garden3d.kinematic3d.geometry import Part
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE
-from kinder_garden3d.kinematic3d.scene import BodySpec
+from kinder_garden3d.kinematic3d.scene import BodySpec, BoxProbe
 
 Vec3 = tuple[float, float, float]
 
@@ -120,6 +120,7 @@ class Table3DEnv(Kinematic3DEnv):
         self.cubes = [Object(f"cube{i}", CUBOID_TYPE) for i in range(num_cubes)]
         super().__init__(config or Table3DConfig(), render_mode=render_mode)
         self.config: Table3DConfig
+        self._probe = BoxProbe()
 
     def constant_bodies(self) -> dict[str, ConstantBody]:
         if self.config.floor_collides:
@@ -150,12 +151,14 @@ class Table3DEnv(Kinematic3DEnv):
         for _ in range(cfg.max_reset_tries):
             # Upstream's order of draws: every cube, then the pairwise check (touching cubes,
             # within collision_distance, are rejected).
+            # pybullet's query decides, as upstream's (it misses sub-0.1 mm overlaps).
             draws = [rng.uniform(low, high) for _ in self.cubes]
             centres = [(float(d[0]), float(d[1])) for d in draws]
+            half = np.array([h, h, h])
             if any(
-                rect_distance_2d(a, (h, h), b, (h, h)) <= cfg.collision_distance
-                for i, a in enumerate(centres)
-                for b in centres[i + 1 :]
+                self._probe.touch(a, half, b, half, cfg.collision_distance)
+                for i, a in enumerate(draws)
+                for b in draws[i + 1 :]
             ):
                 continue
             features = {
@@ -166,6 +169,11 @@ class Table3DEnv(Kinematic3DEnv):
                 features[cube] = self.cuboid_features((x, y, top + h), (h, h, h))
             return ObjectCentricState.from_features(features)
         raise self._reset_error("collision-free cube positions")
+
+    def close(self) -> None:
+        """Release the pybullet clients (the scene's and the reset's box probe)."""
+        self._probe.close()
+        super().close()
 
     def goal_reached(self, state: ObjectCentricState) -> bool:
         held = self.held_object(state)
