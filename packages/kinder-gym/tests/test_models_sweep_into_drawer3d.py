@@ -12,6 +12,7 @@ from kinder_gym.concepts import sorted_atoms
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.sweep_into_drawer3d import (
     DRAWER,
+    HEAD_SIDE,
     TABLE_Z,
     SweepController,
     create_model,
@@ -164,9 +165,10 @@ def test_pick_wiper_then_sweep(env, model):
     held = rollout.states[-1]
     assert model.abstract(held) == op.apply(model.abstract(s))
     assert held.get(env.objects["wiper_0"], "z") > 0.5
-    # PickWiper already turned the wiper for sweeping: its body x axis (handle to head) points
-    # along world +x, toward the island's front edge, so the handle trails.
-    assert wiper_pose(held, env.objects["wiper_0"])[1][0, 0] > 0.9
+    # PickWiper already turned the wiper for sweeping: the direction from its handle to its head
+    # (body x times HEAD_SIDE) points along world +x, toward the island's front edge, so the
+    # handle trails.
+    assert HEAD_SIDE * wiper_pose(held, env.objects["wiper_0"])[1][0, 0] > 0.9
     # A sweep pass keeps the wiper in hand and pushes the band's screws forward (+x).
     op = {o.name: o for o in model.ground_operators(held)}[
         f"Sweep(robot, wiper_0, {DRAWER}, cube_1)"
@@ -175,8 +177,9 @@ def test_pick_wiper_then_sweep(env, model):
     assert isinstance(skill.controller, SweepController)
     params = np.array([0.0, 0.01, 0.04, 0.0, 0.0])  # one pass, no gathering push
     rollout = execute_skill(skill.controller, held, params, env.transition, 300)
-    assert rollout.finished
     end = rollout.states[-1]
+    # The pass may sweep every cube in and end the episode before the skill's last segment.
+    assert rollout.finished or (rollout.terminated and env.goal_reached(end))
     assert "(Holding robot wiper_0)" in sorted_atoms(model.abstract(end))
     x0 = held.get(env.objects["cube_1"], "x")
     moved = end.get(env.objects["cube_1"], "x") - x0

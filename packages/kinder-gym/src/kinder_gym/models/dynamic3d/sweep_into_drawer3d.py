@@ -1,8 +1,9 @@
 """The SweepIntoDrawer3D planning model: open the island's drawer, pick the wiper, sweep screws in.
 
 The scene: kitchen island at x ∈ [0.125, 0.875], top at z = 0.46; the working drawer slides out
-of its front face (world +x); screws on the top at x ∈ [0.625, 0.8], |y| ≤ 0.1; the wiper (a T of
-a 20 cm handle and a 20 cm × 2 cm × 3 cm head) lies further along −y, its handle pointing +y.
+of its front face (world +x); cubes ("screws" below) on the top at x ∈ [0.635, 0.815],
+y ∈ [−0.19, −0.01]; the wiper (a T of a 20 cm handle and a 3 × 20 × 1.5 cm head) lies at
+y ∈ [−0.4, −0.3], its handle pointing +x from the head.
 
 Concepts:
 
@@ -116,6 +117,11 @@ Version notes:
 * Sweep re-tuned for those contacts (issue 18): the level, held and servoed head, the gathering
   push and PickWiper without the fold (above); the Sweep parameters gained ``gather`` (5-D) and
   the clearance range moved from −20…−5 mm to −2…+3 mm (servoed).
+* Upstream conformance: the env now draws upstream kindergarden 0.2.5's task: 2 cm cubes of
+  0.1 kg (the "screws" above were 4.5 cm screws of 20 g) dropped onto the top, and upstream's
+  wiper (head 3 × 20 × 1.5 cm at the handle's −x end, frame at the centre of its bottom face,
+  lying with its handle along +x at x ≈ 0.82–0.89). The model reads the head through
+  ``HEAD_CENTRE``/``HEAD_SIDE``; the skills are otherwise unchanged.
 """
 
 from __future__ import annotations
@@ -169,8 +175,12 @@ OPEN_POS = 0.12
 HOLD_CLOSURE = (0.3, 0.97)
 #: A screw whose centre is below this height and is not in the drawer's region is lost (m).
 LOST_Z = 0.41
-#: Wiper geometry in its body frame: the head's centre (x) and the handle's axis height (z).
-HEAD_X, HANDLE_Z, HEAD_HALF_HEIGHT = 0.1, 0.0075, 0.015
+#: Wiper geometry in its body frame (upstream kindergarden 0.2.5's wiper: the frame is the centre
+#: of its bottom face, the 3 cm wide, 1.5 cm tall head at the -x end of the 20 cm handle): the
+#: head's centre, the side of the head (-1: -x), and the head's half height.
+HEAD_CENTRE = np.array([-0.1, 0.0, 0.0075])
+HEAD_SIDE = -1.0
+HEAD_HALF_HEIGHT = 0.0075
 #: Height of the pinch point above the top when grasping a part lying on it: the pads reach
 #: 2.5 cm below the pinch point and must clear the top by a few millimetres.
 GRASP_ABOVE_TABLE = 0.028
@@ -189,7 +199,7 @@ GATHER_BEHIND = 0.72
 #: Gain of the head-height servo during a push: metres of extra depth per metre of error, per step.
 SERVO_GAIN = 0.5
 #: Half extents of the wiper's head box in its body frame (m).
-HEAD_HALF = np.array([0.01, 0.1, 0.015])
+HEAD_HALF = np.array([0.015, 0.1, 0.0075])
 #: Continuous (unbounded) arm joints, by index.
 _CONTINUOUS = np.array([0, 2, 4, 6])
 #: IK seeds: the gripper horizontal toward −x of the base (drawer handle), and pointing down.
@@ -312,13 +322,13 @@ def wiper_pose(state: ObjectCentricState, wiper: Object) -> tuple[FloatArray, Fl
 def head_bottom(state: ObjectCentricState, wiper: Object) -> float:
     """Height of the lowest point of the wiper's head (m)."""
     pos, rot = wiper_pose(state, wiper)
-    centre = pos + rot @ np.array([HEAD_X, 0.0, 0.0])
+    centre = pos + rot @ HEAD_CENTRE
     return float(centre[2] - np.abs(rot[2, :]) @ HEAD_HALF)
 
 
 def handle_direction(rot: FloatArray) -> FloatArray:
     """Horizontal unit vector from the wiper's head along its handle."""
-    d = -np.asarray(rot[:, 0], dtype=np.float64)
+    d = -HEAD_SIDE * np.asarray(rot[:, 0], dtype=np.float64)
     d[2] = 0.0
     n = float(np.linalg.norm(d))
     if n < 1e-6:
@@ -426,11 +436,11 @@ class PickWiperController(_Controller):
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         grip, side, standoff = (float(v) for v in self.params)
         pos, rot = wiper_pose(state, self.objects[1])
-        if pos[2] < TABLE_Z:
+        if pos[2] < TABLE_Z - 0.02:  # the frame is the bottom face: on the top, z ≈ TABLE_Z
             raise SkillFailure("the wiper is not on the island")
         hdir = handle_direction(rot)
         along = np.array([-hdir[1], hdir[0], 0.0])  # the head's length, horizontal
-        grasp = pos + rot @ np.array([HEAD_X, 0.0, 0.0])
+        grasp = pos + rot @ HEAD_CENTRE
         grasp = grasp + along * (grip if side >= 0.5 else -grip)
         # The pads span the head's whole height (3 cm) and clear the top by 3 mm: the most
         # margin against the slow slip of a held object under MuJoCo's soft friction.
@@ -569,10 +579,11 @@ class SweepController(_Controller):
 
                 def lower(st: ObjectCentricState) -> list[SegmentSource]:
                     pos, rot = wiper_pose(st, wiper)
-                    rz = rot.T  # the wiper level, its handle trailing (−x)
+                    # The wiper level, its handle trailing (−x): its body x axis along HEAD_SIDE·x.
+                    rz = np.diag([HEAD_SIDE, HEAD_SIDE, 1.0]) @ rot.T
                     b = base_pose(st, robot)
                     p, r = pinch_pose(b, arm_joints(st, robot))
-                    head = pos + rot @ np.array([HEAD_X, 0.0, 0.0])
+                    head = pos + rot @ HEAD_CENTRE
                     off = rz @ (head - p)  # head relative to the pinch point once turned
                     hb = float(off[2]) - HEAD_HALF_HEIGHT
                     target = np.array([x0 - off[0], yc - off[1], TABLE_Z + clearance - hb])
@@ -642,8 +653,8 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         pinch = pinch_pose(base_pose(state, robot), arm_joints(state, robot))[0]
         pos, rot = wiper_pose(state, wiper)
         # Distance from the pinch point to the head's axis segment (local y ∈ [-0.1, 0.1]).
-        a = pos + rot @ np.array([HEAD_X, -0.1, 0.0])
-        b = pos + rot @ np.array([HEAD_X, 0.1, 0.0])
+        a = pos + rot @ (HEAD_CENTRE + np.array([0.0, -0.1, 0.0]))
+        b = pos + rot @ (HEAD_CENTRE + np.array([0.0, 0.1, 0.0]))
         t = float(np.clip((pinch - a) @ (b - a) / float((b - a) @ (b - a)), 0.0, 1.0))
         return float(np.linalg.norm(pinch - (a + t * (b - a)))) < 0.05
 
