@@ -315,15 +315,19 @@ def compare_resets(
     ours: FloatArray,
     fixture: Fixture,
     alpha: float = 1e-3,
-    range_slack: float = 0.1,
+    range_slack: float = 0.02,
     const_atol: float = 1e-9,
 ) -> DistributionReport:
     """Compare our reset vectors (rows) with upstream's, feature by feature.
 
     A feature upstream holds constant must be that constant on every one of our resets (within
-    ``const_atol``). A sampled feature passes when our range and upstream's agree to
-    ``range_slack`` of upstream's range at each end and the KS statistic is below its critical
-    value at ``alpha`` (a two-sample test on independent seeds).
+    ``const_atol``). A sampled feature passes when the two samples cover the same range and the
+    KS statistic is below its critical value at ``alpha`` divided by the number of sampled
+    features (so ``alpha`` bounds the chance that an id whose distribution matches fails). The
+    range test allows for sampling: the probability mass outside the range of ``n`` draws is
+    Beta(2, n − 1) distributed, so each sample (``m`` values) may have as many values outside the
+    other's range (widened by ``range_slack`` of it at each end) as that mass's upper
+    ``alpha``-quantile (per feature, as for KS) gives, plus four binomial standard deviations.
     """
     names = fixture.feature_names
     if ours.ndim != 2 or ours.shape[1] != len(names):
@@ -345,10 +349,13 @@ def compare_resets(
             continue
         up = r.samples[name]
         ulo, uhi = float(up.min()), float(up.max())
-        slack = range_slack * (uhi - ulo)
-        range_ok = abs(lo - ulo) <= slack and abs(hi - uhi) <= slack
+        a = alpha / max(1, len(r.samples))
+        range_ok = _outside(col, ulo, uhi, range_slack) <= _allowed_outside(col.size, up.size, a)
+        range_ok = range_ok and _outside(up, lo, hi, range_slack) <= _allowed_outside(
+            up.size, col.size, a
+        )
         ks = ks_statistic(col, up)
-        crit = ks_critical(col.size, up.size, alpha)
+        crit = ks_critical(col.size, up.size, a)
         ok = range_ok and ks <= crit
         detail = ""
         if not range_ok:
@@ -359,13 +366,35 @@ def compare_resets(
     return DistributionReport(fixture.env_id, ours.shape[0], r.num_seeds, feats)
 
 
+def _outside(values: FloatArray, lo: float, hi: float, slack: float) -> int:
+    """How many ``values`` lie outside ``[lo, hi]`` widened by ``slack`` of its width."""
+    pad = slack * (hi - lo)
+    return int(np.count_nonzero((values < lo - pad) | (values > hi + pad)))
+
+
+def _allowed_outside(m: int, n: int, alpha: float) -> float:
+    """The most of ``m`` draws that may fall outside the range of ``n`` draws from the same
+    distribution: ``m·x + 4·sqrt(m·x) + 1`` where ``x`` is the upper ``alpha``-quantile of the
+    uncovered mass, Beta(2, n − 1), whose tail is ``(1 − x)^(n−1)·(1 + (n − 1)·x)``."""
+
+    def tail(x: float) -> float:
+        return float((1.0 - x) ** (n - 1) * (1.0 + (n - 1) * x))
+
+    lo, hi = 0.0, 1.0
+    for _ in range(60):  # bisection: tail() falls from 1 at x = 0 to 0 at x = 1
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if tail(mid) > alpha else (lo, mid)
+    mean = m * hi
+    return mean + 4.0 * math.sqrt(mean) + 1.0
+
+
 def check_resets(
     env: gymnasium.Env[Any, Any],
     fixture: Fixture,
     num_seeds: int | None = None,
     first_seed: int = 1000,
     alpha: float = 1e-3,
-    range_slack: float = 0.1,
+    range_slack: float = 0.02,
 ) -> DistributionReport:
     """Sample our resets on seeds ``first_seed..`` (as many as upstream recorded unless
     ``num_seeds``) and compare them with upstream's (see :func:`compare_resets`)."""
