@@ -209,10 +209,10 @@ def _groups(names: list[str]) -> dict[str, list[int]]:
     return out
 
 
-def one_step_errors(fx: Fixture) -> dict[str, np.ndarray]:
+def one_step_errors(fx: Fixture, **config: object) -> dict[str, np.ndarray]:
     """The largest error per feature group at every recorded step, each step replayed from
-    upstream's state before it."""
-    env = kinder_core.make(fx.env_id)
+    upstream's state before it (``config``: Dynamic3DConfig fields)."""
+    env = kinder_core.make(fx.env_id, **({"config": config} if config else {}))
     groups = _groups(fx.feature_names)
     errors: dict[str, list[float]] = {g: [] for g in groups}
     for traj in fx.trajectories:
@@ -261,3 +261,21 @@ def test_first_steps_match_upstream_within_tolerance(fixture: Fixture) -> None:
     short = replace(fixture, trajectories=[first])
     over = over_tolerance(one_step_errors(short), median=False)
     assert not over, f"{fixture.env_id}: one-step errors (median, max) over tolerance: {over}"
+
+
+#: Tolerances with upstream's arm controller (``arm_control="held_torque"``): (median, max).
+#: Measured on Shelf3D-o1: arm median 4.8e-4, max 8.5e-3 rad (the gripper's own model differs;
+#: the base and objects as with the default controller).
+HELD_TORQUE_ARM_TOL = (2e-3, 0.02)
+
+
+def test_upstreams_arm_controller_follows_upstream_closely() -> None:
+    """With ``arm_control="held_torque"`` (upstream's torque held over the action, its joint
+    damping) the arm's one-step error falls from about 0.03 rad to 5e-4 rad (median)."""
+    fx = load_fixture(DATA / "Shelf3D-o1.json")
+    short = replace(fx, trajectories=[replace(t, actions=t.actions[:10]) for t in fx.trajectories])
+    held = one_step_errors(short, arm_control="held_torque")["arm"]
+    default = one_step_errors(short)["arm"]
+    assert float(np.median(held)) <= HELD_TORQUE_ARM_TOL[0]
+    assert float(held.max()) <= HELD_TORQUE_ARM_TOL[1]
+    assert float(np.median(default)) > 5 * float(np.median(held))

@@ -43,6 +43,9 @@ ROBOT_PREFIX = "robot_"
 #: Arm PD gains of the spec (N m / rad and N m s / rad).
 ARM_KP = (200.0, 200.0, 200.0, 200.0, 100.0, 100.0, 100.0)
 ARM_KD = (30.0, 30.0, 30.0, 30.0, 15.0, 15.0, 15.0)
+#: Passive damping of upstream kindergarden 0.2.5's arm joints (N m s/rad), used with the
+#: held-torque arm control.
+UPSTREAM_ARM_DAMPING = (50.0, 50.0, 50.0, 50.0, 25.0, 25.0, 25.0)
 #: Robot bodies that receive gravity compensation (everything carried by the arm).
 _GRAVCOMP_BODIES = (
     "gen3_base_link", "shoulder_link", "half_arm_1_link", "half_arm_2_link", "forearm_link",
@@ -95,11 +98,14 @@ def _axis_quat(axis: int, angle: float) -> Array:
     return q
 
 
-def _robot_xml() -> tuple[str, str, str, str]:
-    """The robot's worldbody, actuators, equality and defaults, adapted as described above."""
+def _robot_xml(arm_motors: bool = False) -> tuple[str, str, str, str]:
+    """The robot's worldbody, actuators, equality and defaults, adapted as described above.
+
+    With ``arm_motors`` the arm keeps its torque motors and gets no ``gravcomp`` (the env then
+    computes the PD torque with bias compensation itself, as upstream does)."""
     parts = mjcf_parts(prefix=ROBOT_PREFIX)
     body = parts.worldbody
-    for name in _GRAVCOMP_BODIES:
+    for name in () if arm_motors else _GRAVCOMP_BODIES:
         tag = f'<body name="{ROBOT_PREFIX}{name}"'
         if tag not in body:
             raise RuntimeError(f"robot MJCF has no body {ROBOT_PREFIX}{name}")
@@ -112,6 +118,16 @@ def _robot_xml() -> tuple[str, str, str, str]:
     fixed = quat_mul(quat_mul(_axis_quat(0, 0.0), _axis_quat(1, -math.pi / 4)),
                      _axis_quat(2, -math.pi / 2))  # fmt: skip
     body = body[: cam.start(1)] + _f(fixed) + body[cam.end(1) :]
+    if arm_motors:
+        # Upstream's arm joints: passive damping 50 (joints 1-4) and 25 N m s/rad, no armature.
+        for i, joint in enumerate(robot_description().arm_joint_names):
+            found = re.search(rf'<joint name="{ROBOT_PREFIX}{joint}"[^>]*>', body)
+            if found is None:
+                raise RuntimeError(f"robot MJCF has no joint {ROBOT_PREFIX}{joint}")
+            new = re.sub(r'armature="[^"]*"', 'armature="0"', found.group(0))
+            new = re.sub(r'damping="[^"]*"', f'damping="{UPSTREAM_ARM_DAMPING[i]:g}"', new)
+            body = body[: found.start()] + new + body[found.end() :]
+        return body, parts.actuator, parts.equality, parts.default
     lines = [ln for ln in parts.actuator.splitlines() if "<motor " not in ln]
     desc = robot_description()
     arm = []
@@ -166,7 +182,7 @@ def _marker(name: str, box: Array, rgba: tuple[float, ...], local: Array) -> str
     )
 
 
-def build_scene(task: TaskSpec, image_size: tuple[int, int]) -> Scene:
+def build_scene(task: TaskSpec, image_size: tuple[int, int], arm_motors: bool = False) -> Scene:
     """Assemble the MJCF for ``task`` (``image_size`` = (width, height) of offscreen frames)."""
     fixtures = {n: build_fixture(e.kind, n, e.params) for n, e in task.fixtures.items()}
     objects = {n: build_object(e.kind, n, e.params) for n, e in task.objects.items()}
@@ -233,7 +249,7 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int]) -> Scene:
         cameras.append(
             f'<camera name="{cam.name}" pos="{_f(cam.pos)}" xyaxes="{_f(xy)}" fovy="{cam.fovy:g}"/>'
         )
-    robot_body, robot_act, robot_eq, robot_default = _robot_xml()
+    robot_body, robot_act, robot_eq, robot_default = _robot_xml(arm_motors)
     world_markers = "\n".join(markers.get("world", []))
     width, height = image_size
     xml = f"""<mujoco model="kinder_{task.family}">
