@@ -10,5 +10,7 @@ Modules (import them directly; importing this package imports nothing else):
 * ``base``: :class:`~.base.Kinematic2DEnv` and the drawing of states.
 * one module per family: ``motion2d``, ``obstruction2d``, ``clutteredretrieval2d``,
   ``clutteredstorage2d``, ``stickbutton2d``, ``pushpullhook2d``.
+* ``batched``: N sub-envs of one id stepped in whole-array numpy, equal to the single env bit for
+  bit (every id's ``vector_entry_point``).
 * ``registration``: the registered ids.
 """
