@@ -210,9 +210,3 @@ def rect_distance_2d(c1: Xy, h1: Xy, c2: Xy, h2: Xy) -> float:
     dx = max(abs(c1[0] - c2[0]) - h1[0] - h2[0], 0.0)
     dy = max(abs(c1[1] - c2[1]) - h1[1] - h2[1], 0.0)
     return math.hypot(dx, dy)
-
-
-def aabb_distance(c1: Array, h1: Array, c2: Array, h2: Array) -> float:
-    """Distance between two axis-aligned boxes (centre, half extents); 0 when they overlap."""
-    gap = np.maximum(np.abs(np.asarray(c1) - np.asarray(c2)) - np.asarray(h1) - np.asarray(h2), 0.0)
-    return float(np.linalg.norm(gap))

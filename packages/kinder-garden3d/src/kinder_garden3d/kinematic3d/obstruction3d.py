@@ -16,9 +16,9 @@ from kinder_garden3d.kinematic3d.base_env import (
     Kinematic3DEnv,
     Rgba,
 )
-from kinder_garden3d.kinematic3d.geometry import Array, Part, aabb_distance, quat_to_matrix
+from kinder_garden3d.kinematic3d.geometry import Array, Part, quat_to_matrix
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE
-from kinder_garden3d.kinematic3d.scene import BodySpec
+from kinder_garden3d.kinematic3d.scene import BodySpec, BoxProbe
 
 Vec3 = tuple[float, float, float]
 
@@ -139,6 +139,7 @@ class Obstruction3DEnv(Kinematic3DEnv):
         ]
         super().__init__(config or Obstruction3DConfig(), render_mode=render_mode)
         self.config: Obstruction3DConfig
+        self._probe = BoxProbe()
 
     def constant_bodies(self) -> dict[str, ConstantBody]:
         cfg = self.config
@@ -175,7 +176,8 @@ class Obstruction3DEnv(Kinematic3DEnv):
             return rng.uniform((lo[0], lo[1], z), (hi[0], hi[1], z))
 
         def touches(c1: Array, h1: Array, c2: Array, h2: Array) -> bool:
-            return aabb_distance(c1, h1, c2, h2) <= cfg.collision_distance
+            # pybullet's query decides, as upstream's (it misses sub-0.1 mm overlaps).
+            return self._probe.touch(c1, h1, c2, h2, cfg.collision_distance)
 
         rh = rng.uniform(cfg.region_half_low, cfg.region_half_high)
         rc = on_top_of(table_c, table_h, rh, 0.0)
@@ -209,6 +211,11 @@ class Obstruction3DEnv(Kinematic3DEnv):
         for obj, (oc, oh) in zip(self.obstructions, placed, strict=True):
             features[obj] = self.cuboid_features(oc, oh)
         return ObjectCentricState.from_features(features)
+
+    def close(self) -> None:
+        """Release the pybullet clients (the scene's and the reset's box probe)."""
+        self._probe.close()
+        super().close()
 
     def goal_reached(self, state: ObjectCentricState) -> bool:
         if state.get(self.robot, "grasp_active") > 0.5:

@@ -16,8 +16,9 @@ from kinder_garden3d.kinematic3d.base_env import (
     Kinematic3DEnv,
     Rgba,
 )
-from kinder_garden3d.kinematic3d.geometry import Part, Xy, cuboid_parts, rect_distance_2d
+from kinder_garden3d.kinematic3d.geometry import Array, Part, cuboid_parts, rect_distance_2d
 from kinder_garden3d.kinematic3d.object_types import CONTAINER, CUBOID_TYPE
+from kinder_garden3d.kinematic3d.scene import BoxProbe
 from kinder_garden3d.kinematic3d.table3d import floor_body
 
 Vec3 = tuple[float, float, float]
@@ -32,8 +33,9 @@ class Transport3DConfig(Kinematic3DConfig):
         box_half: Outer half extents of the open-top box (walls 0.01 m).
         cube_half: Half edge of the cubes.
         floor_region: (x_min, x_max, y_min, y_max) where the box and cubes start.
-        robot_footprint_half: Half extents (x, y) of the base's collision box in upstream's
-            robot (0.548 × 0.508 m), which sampled objects may not touch.
+        robot_footprint_half, robot_footprint_half_z: Half extents of the base's collision box
+            in upstream's robot (0.548 × 0.508 × 0.365 m, standing on the floor), which sampled
+            objects may not touch.
         cube_box_preference: A cube is kept only when its footprint is closer to the box's than
             to the table's by more than this (upstream's rule, which puts cubes near the box).
         max_sampling_attempts: Draws per object before a reset gives up.
@@ -50,6 +52,7 @@ class Transport3DConfig(Kinematic3DConfig):
     cube_half: float = 0.025
     floor_region: tuple[float, float, float, float] = (-1.5, 1.5, -1.5, 1.5)
     robot_footprint_half: tuple[float, float] = (0.274, 0.254)
+    robot_footprint_half_z: float = 0.1825
     cube_box_preference: float = 0.05
     max_sampling_attempts: int = 100_000
     goal_min_z: float = 0.3
@@ -137,6 +140,7 @@ class Transport3DEnv(Kinematic3DEnv):
         self.cubes = [Object(f"cube{i}", CUBOID_TYPE) for i in range(num_cubes)]
         super().__init__(config or Transport3DConfig(), render_mode=render_mode)
         self.config: Transport3DConfig
+        self._probe = BoxProbe()
 
     def constant_bodies(self) -> dict[str, ConstantBody]:
         return {"floor": floor_body()}
@@ -165,32 +169,33 @@ class Transport3DEnv(Kinematic3DEnv):
     def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
         """Upstream's sampler, draw for draw: the box, then each cube, uniform over
         ``floor_region`` (centres; x, y and a constant z per draw), rejecting a draw that comes
-        within ``collision_distance`` of the base's footprint, the table or an object placed
-        before; a cube must also lie nearer the box than the table (``cube_box_preference``)."""
+        within ``collision_distance`` of the base's collision box, the table or an object placed
+        before (by pybullet's query, as upstream); a cube must also lie nearer the box than the
+        table (``cube_box_preference``)."""
         cfg = self.config
         x0, x1, y0, y1 = cfg.floor_region
-        table_c = (cfg.table_pos[0], cfg.table_pos[1])
-        table_h = (cfg.table_half[0], cfg.table_half[1])
-        base_c = (cfg.home_base_pose[0], cfg.home_base_pose[1])
-        obstacles = [(base_c, cfg.robot_footprint_half), (table_c, table_h)]
-        bh, h = cfg.box_half, cfg.cube_half
-        box_xy = self._draw(rng, (x0, y0, bh[2]), (x1, y1, bh[2]), (bh[0], bh[1]), obstacles)
-        box_h = (bh[0], bh[1])
-        obstacles.append((box_xy, box_h))
-        cubes: list[tuple[float, float]] = []
+        fx, fy = cfg.robot_footprint_half
+        base_h = np.array([fx, fy, cfg.robot_footprint_half_z])
+        base_c = np.array([cfg.home_base_pose[0], cfg.home_base_pose[1], base_h[2]])
+        table_c, table_h = np.array(cfg.table_pos), np.array(cfg.table_half)
+        obstacles = [(base_c, base_h), (table_c, table_h)]
+        bh, h = np.array(cfg.box_half), cfg.cube_half
+        box_c = self._draw(rng, (x0, y0, bh[2]), (x1, y1, bh[2]), bh, obstacles)
+        obstacles.append((box_c, bh))
+        cubes: list[Array] = []
         for _cube in self.cubes:
-            xy = self._draw(
-                rng, (x0, y0, h), (x1, y1, h), (h, h), obstacles, (box_xy, box_h, table_c, table_h)
-            )
-            obstacles.append((xy, (h, h)))
-            cubes.append(xy)
+            half = np.array([h, h, h])
+            near = (box_c, bh, table_c, table_h)
+            c = self._draw(rng, (x0, y0, h), (x1, y1, h), half, obstacles, near)
+            obstacles.append((c, half))
+            cubes.append(c)
         features = {
             self.robot: self.robot_features(),
             self.table: self.cuboid_features(cfg.table_pos, cfg.table_half),
-            self.box: self.cuboid_features((*box_xy, bh[2]), bh),
+            self.box: self.cuboid_features(box_c, bh),
         }
-        for cube, xy in zip(self.cubes, cubes, strict=True):
-            features[cube] = self.cuboid_features((*xy, h), (h, h, h))
+        for cube, c in zip(self.cubes, cubes, strict=True):
+            features[cube] = self.cuboid_features(c, (h, h, h))
         return ObjectCentricState.from_features(features)
 
     def _draw(
@@ -198,25 +203,30 @@ class Transport3DEnv(Kinematic3DEnv):
         rng: np.random.Generator,
         low: Vec3,
         high: Vec3,
-        half: tuple[float, float],
-        obstacles: list[tuple[tuple[float, float], tuple[float, float]]],
-        near_box: tuple[Xy, Xy, Xy, Xy] | None = None,
-    ) -> tuple[float, float]:
+        half: Array,
+        obstacles: list[tuple[Array, Array]],
+        near_box: tuple[Array, Array, Array, Array] | None = None,
+    ) -> Array:
         cfg = self.config
         for _ in range(cfg.max_sampling_attempts):
-            x, y, _z = (float(v) for v in rng.uniform(low, high))
+            c = rng.uniform(low, high)
+            xy = (float(c[0]), float(c[1]))
             if near_box is not None:
                 box_c, box_h, table_c, table_h = near_box
-                to_box = rect_distance_2d((x, y), (0.0, 0.0), box_c, box_h)
-                to_table = rect_distance_2d((x, y), (0.0, 0.0), table_c, table_h)
+                to_box = rect_distance_2d(xy, (0.0, 0.0), _xy(box_c), _xy(box_h))
+                to_table = rect_distance_2d(xy, (0.0, 0.0), _xy(table_c), _xy(table_h))
                 if to_box >= to_table + cfg.cube_box_preference:
                     continue
-            if all(
-                rect_distance_2d((x, y), half, c, oh) > cfg.collision_distance
-                for c, oh in obstacles
+            if not any(
+                self._probe.touch(c, half, oc, oh, cfg.collision_distance) for oc, oh in obstacles
             ):
-                return x, y
+                return np.asarray(c, dtype=np.float64)
         raise self._reset_error("a collision-free floor position")
+
+    def close(self) -> None:
+        """Release the pybullet clients (the scene's and the reset's box probe)."""
+        self._probe.close()
+        super().close()
 
     def goal_reached(self, state: ObjectCentricState) -> bool:
         cfg = self.config
@@ -227,3 +237,7 @@ class Transport3DEnv(Kinematic3DEnv):
             return False
         ee, _ = self.ee_pose(state)
         return all(np.linalg.norm(state[o][:3] - ee) >= cfg.goal_ee_clearance for o in items)
+
+
+def _xy(v: Array) -> tuple[float, float]:
+    return float(v[0]), float(v[1])
