@@ -98,9 +98,10 @@ class Packing3DEnv(Kinematic3DEnv):
     name). Features: `Kinematic3DRobot` (19): `pos_base_x, pos_base_y, pos_base_rot,
     joint_1..joint_7, finger_state, grasp_active, grasp_tf_x … grasp_tf_qw`;
     `Kinematic3DCuboid` (12): `pose_x, pose_y, pose_z, pose_qx, pose_qy, pose_qz, pose_qw,
-    grasp_active, object_type, half_extent_x, half_extent_y, half_extent_z` (the rack has
-    object_type 1 = open-top container); `Kinematic3DTriangle` (12): `pose_x … pose_qw,
-    grasp_active, triangle_type, side_a, side_b, depth` (pose of the centroid at mid-depth).
+    grasp_active, object_type, half_extent_x, half_extent_y, half_extent_z` (object_type −1
+    for every cuboid, as upstream; the rack is nevertheless an open-top container);
+    `Kinematic3DTriangle` (12): `pose_x … pose_qw, grasp_active, triangle_type, side_a,
+    side_b, depth` (pose of the centroid at mid-depth).
     Quaternions are ordered (x, y, z, w). The table is constant and not observed.
 
     ## Action Space
@@ -130,9 +131,11 @@ class Packing3DEnv(Kinematic3DEnv):
     * v0: first release in kinder-garden3d.
 
     ## Deviations
-    Parts start unrotated. The reset does not draw upstream's random numbers in upstream's order
-    (same layout rules, not the same state for a seed). Upstream registers no step limit; these
-    ids use 500.
+    Parts start unrotated and resting on the table; upstream starts them 1 cm above it (its
+    sampler adds the part's full height to the table top where the centre needs half: a bug
+    there, kept out here). The reset does not draw upstream's random numbers in upstream's
+    order (same layout rules, not the same state for a seed). Upstream registers no step
+    limit; these ids use 500.
     Shared with every Kinematic3D env here: the robot is a primitive-shape model of the
     TidyBot++/Gen3/2F-85 (see `kinder_garden3d/robot/README.md`), not upstream's meshes; plain
     colours replace textures and there is no textured background (upstream `realistic_bg`);
@@ -219,7 +222,7 @@ class Packing3DEnv(Kinematic3DEnv):
         for _ in range(cfg.max_reset_tries):
             features: dict[Object, list[float]] = {
                 self.robot: self.robot_features(),
-                self.rack: self.cuboid_features((tx, ty, top + rh[2]), rh, object_type=CONTAINER),
+                self.rack: self.cuboid_features((tx, ty, top + rh[2]), rh),
             }
             placed: list[tuple[tuple[float, float], tuple[float, float]]] = []
             for part in self.parts:
