@@ -121,7 +121,7 @@ class Motion2DEnv(Kinematic2DEnv):
         c = self.config
         assert isinstance(c, Motion2DConfig)
         over = c.gap_bottom[1] + c.gap_height[1] - c.world_max_y
-        if over > 0:
+        if over > 0 and self.num_passages > 0:
             bounds["y"] = (bounds["y"][0], c.world_max_y + over)
             bounds["height"] = (-over, bounds["height"][1])
         return bounds
