@@ -63,13 +63,13 @@ def test_dynobstruction2d_skills_reach_their_predictions() -> None:
     assert out.finished and env.goal_reached(out.states[-1])
 
 
-@pytest.mark.parametrize(("seed", "leaning"), [(13, False), (5, True)])
+@pytest.mark.parametrize(("seed", "leaning"), [(1089, False), (1052, True)])
 def test_push_closes_or_leans_the_fingers_where_open_ones_do_not_fit(
     seed: int, leaning: bool
 ) -> None:
     """o0 instances whose target stands so near a wall that the open fingers (and the base above
-    them) cannot get behind it: seed 13 fits closed upright fingers, seed 5 only leaning ones;
-    either way the push reaches the goal with the block upright."""
+    them) cannot get behind it: seed 1089 fits closed upright fingers, seed 1052 only leaning
+    ones; either way the push reaches the goal with the block upright."""
     env = make_object_centric("kinder/DynObstruction2D-o0-v0")
     model = create_model(env)
     state = env.reset(seed=seed)[0]
