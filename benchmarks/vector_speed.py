@@ -122,16 +122,43 @@ def ppo_rate(env: str, vec: str, n_envs: int, n_steps: int, steps: int) -> dict[
         "seed": 1000,
     }
     args = make_train_args("ppo", values)
+    env_rate = env_only_rate(args, steps)
     with tempfile.TemporaryDirectory() as tmp:
         result = train("ppo", args, tmp, progress=False)
+    rate = result.ran_steps / result.wall_s
     return {
         "env": env,
         "vec_env": vec,
         "n_envs": n_envs,
         "n_steps": n_steps,
         "steps": result.ran_steps,
-        "train_steps_per_s": result.ran_steps / result.wall_s,
+        "train_steps_per_s": rate,
+        "env_only_steps_per_s": env_rate,
+        # Seconds per env step spent outside the env (the learner and SB3's loop).
+        "learner_share": 1.0 - rate / env_rate,
     }
+
+
+def env_only_rate(args: Any, steps: int) -> float:
+    """Random-action steps/s of the training vector env of ``args`` (no learner)."""
+    from kinder_bench.baselines.rl.train import make_venv, resolve
+
+    venv = make_venv("ppo", args, resolve("ppo", args))
+    try:
+        venv.seed(1000)
+        venv.reset()
+        rng = np.random.default_rng(1000)
+        shape = (venv.num_envs, *venv.action_space.shape)  # type: ignore[misc]
+        actions = [rng.uniform(-1, 1, size=shape).astype(np.float32) for _ in range(16)]
+        t0 = time.perf_counter()
+        n = k = 0
+        while n < steps:
+            venv.step(actions[k % 16])
+            n += venv.num_envs
+            k += 1
+        return n / (time.perf_counter() - t0)
+    finally:
+        venv.close()
 
 
 def main() -> None:
@@ -158,12 +185,15 @@ def main() -> None:
         ]
         for r in runs:
             print(json.dumps(r), flush=True)
-        print("| vec env | n_envs × n_steps | train env steps/s |")
-        print("|---|---|---|")
+        print(
+            "| vec env | n_envs × n_steps | train env steps/s | env only steps/s | learner share |"
+        )
+        print("|---|---|---|---|---|")
         for r in runs:
             print(
                 f"| {r['vec_env']} | {r['n_envs']} × {r['n_steps']} | "
-                f"{r['train_steps_per_s']:,.0f} |"
+                f"{r['train_steps_per_s']:,.0f} | {r['env_only_steps_per_s']:,.0f} | "
+                f"{r['learner_share']:.0%} |"
             )
         result: Any = runs
     else:

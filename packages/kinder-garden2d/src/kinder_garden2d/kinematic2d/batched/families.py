@@ -7,6 +7,8 @@ single env's bit for bit. :func:`batched_world` picks the family's :class:`Batch
 
 from __future__ import annotations
 
+import abc
+
 import numpy as np
 
 from kinder_core import Object
@@ -50,16 +52,16 @@ def inside(px: FloatArray, py: FloatArray, rect: FloatArray, tol: float) -> Bool
     return out
 
 
-class _Rules(BatchedWorld):
+class _Rules(BatchedWorld, abc.ABC):
     """A batched world with the family's goal and reward (−1 per step by default)."""
 
     def rect(self, obj: Object, features: tuple[str, ...] = _RECT) -> FloatArray:
         """Indices of one object's rectangle features in the state array."""
         return np.array([self.env.layout.index(obj, f) for f in features], dtype=np.intp)
 
+    @abc.abstractmethod
     def goal(self, data: FloatArray) -> BoolArray:
         """``(N,)``: the family's ``goal_reached`` of every state."""
-        raise NotImplementedError(f"{type(self).__name__} defines no goal")
 
     def reward(self, terminated: BoolArray) -> FloatArray:
         """``(N,)`` rewards of steps that end in ``terminated``."""
