@@ -18,28 +18,14 @@ from kinder_gym.models.kinematic2d.clutteredretrieval2d import (
     rectangle_faces,
 )
 from kinder_gym.skills import SkillFailure, execute_skill
+from kinder_gym.testing import check_planning_model
 
 
 def _run(model: PlanningModel, state: ObjectCentricState, name: str) -> Any:
     """Run the named ground skill (up to 5 parameter samples, as a planner would); check that
     the first execution that finishes reaches its operator's prediction."""
-    atoms = model.abstract(state)
-    op = next(o for o in model.ground_operators(state) if o.name == name)
-    assert op.applicable(atoms), (name, sorted_atoms(atoms))
     rng = np.random.default_rng(0)
-    for _ in range(5):
-        gs = model.skill(op)
-        params = gs.controller.sample_parameters(state, rng)
-        try:
-            out = execute_skill(
-                gs.controller, state, params, model.env.transition, model.max_skill_horizon, False
-            )
-        except SkillFailure:
-            continue
-        assert out.finished
-        assert model.abstract(out.states[-1]) == op.apply(atoms), name
-        return out.states[-1]
-    raise AssertionError(f"{name} failed 5 samples")
+    return check_planning_model(model, state, [name], rng, samples=5, stop_on_goal=False)
 
 
 def test_faces_are_outward_facing_sides() -> None:

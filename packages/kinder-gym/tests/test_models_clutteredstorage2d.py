@@ -13,6 +13,7 @@ from kinder_gym.model import PlanningModel
 from kinder_gym.models import create_model
 from kinder_gym.models.kinematic2d.clutteredstorage2d import obstructs
 from kinder_gym.skills import SkillFailure, execute_skill
+from kinder_gym.testing import check_planning_model
 
 
 def _atoms(model: PlanningModel, state: ObjectCentricState) -> set[str]:
@@ -22,28 +23,8 @@ def _atoms(model: PlanningModel, state: ObjectCentricState) -> set[str]:
 def _run(model: PlanningModel, state: ObjectCentricState, name: str, seed: int = 0):  # type: ignore[no-untyped-def]
     """Run the named ground skill with sampled params (up to 5 samples); check that it reaches
     its operator's predicted abstract state exactly; return the final state."""
-    atoms = model.abstract(state)
-    op = next(o for o in model.ground_operators(state) if o.name == name)
-    assert op.applicable(atoms), (name, sorted(map(str, atoms)))
     rng = np.random.default_rng(seed)
-    for _ in range(5):
-        gs = model.skill(op)
-        params = gs.controller.sample_parameters(state, rng)
-        try:
-            out = execute_skill(
-                gs.controller,
-                state,
-                params,
-                model.env.transition,
-                model.max_skill_horizon,
-                stop_on_goal=False,
-            )
-        except SkillFailure:
-            continue
-        assert out.finished
-        assert model.abstract(out.states[-1]) == op.apply(atoms), name
-        return out.states[-1]
-    raise AssertionError(f"{name}: no sample succeeded")
+    return check_planning_model(model, state, [name], rng, samples=5, stop_on_goal=False)
 
 
 def _place_block(

@@ -13,26 +13,13 @@ from kinder_gym.models import create_model, family_of
 from kinder_gym.models.kinematic2d.crv import CRVCollisionChecker
 from kinder_gym.models.kinematic2d.motion2d import passage_gaps
 from kinder_gym.skills import SkillFailure, execute_skill
+from kinder_gym.testing import check_planning_model
 
 
-def _skill_reaches_prediction(model, state, name, params=None, seed=0):  # type: ignore[no-untyped-def]
-    """Run the named ground skill (sampling params if not given); return the final state."""
-    atoms = model.abstract(state)
-    op = next(o for o in model.ground_operators(state) if o.name == name)
-    assert op.applicable(atoms)
-    gs = model.skill(op)
-    rng = np.random.default_rng(seed)
-    p = gs.controller.sample_parameters(state, rng) if params is None else params
-    out = execute_skill(
-        gs.controller, state, p, model.env.transition, model.max_skill_horizon, stop_on_goal=False
-    )
-    assert out.finished
-    reached = model.abstract(out.states[-1])
-    expected = op.apply(atoms)
-    extra = reached - expected
-    assert expected <= reached
-    assert all(a.predicate.name in model.monotone_predicates for a in extra), extra
-    return out.states[-1]
+def _skill_reaches_prediction(model, state, name):  # type: ignore[no-untyped-def]
+    """Run the named ground skill with sampled params; return the final state."""
+    rng = np.random.default_rng(0)
+    return check_planning_model(model, state, [name], rng, stop_on_goal=False, monotone_extras=True)
 
 
 def test_motion2d_predicates_on_hand_built_states() -> None:

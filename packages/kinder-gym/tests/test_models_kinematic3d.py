@@ -9,7 +9,8 @@ pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
 from kinder_gym.models import create_model
-from kinder_gym.skills import SkillFailure, execute_skill
+from kinder_gym.skills import execute_skill
+from kinder_gym.testing import check_planning_model
 
 
 def test_basemotion3d_predicates_and_skill() -> None:
@@ -44,20 +45,16 @@ def test_transport3d_pick_and_place_reach_their_predictions() -> None:
         "(OnTable box0 table)",
         "(OnTable cube0 table)",
     }
-    rng = np.random.default_rng(0)
-    ops = {o.name: o for o in model.ground_operators(state)}
-    for name in ("Pick(robot, cube0)", "Place(robot, cube0, table)"):
-        atoms = model.abstract(state)
-        for _ in range(5):  # sample parameters as the planner would
-            gs = model.skill(ops[name])
-            params = gs.controller.sample_parameters(state, rng)
-            try:
-                out = execute_skill(gs.controller, state, params, env.transition, 300)
-            except SkillFailure:
-                continue
-            if model.abstract(out.states[-1]) == ops[name].apply(atoms):
-                state = out.states[-1]
-                break
-        else:
-            raise AssertionError(f"{name} never reached its prediction")
+    steps = ["Pick(robot, cube0)", "Place(robot, cube0, table)"]
+    rng = np.random.default_rng(0)  # sample parameters as the planner would
+    state = check_planning_model(
+        model,
+        state,
+        steps,
+        rng,
+        samples=5,
+        max_steps=300,
+        retry_mispredictions=True,
+        require_finished=False,
+    )
     assert "(OnTable cube0 table)" in {str(a) for a in model.abstract(state)}

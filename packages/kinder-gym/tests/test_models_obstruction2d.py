@@ -19,21 +19,13 @@ from kinder_gym.models.kinematic2d.obstruction2d import (
     is_clear,
 )
 from kinder_gym.skills import SkillFailure, execute_skill
+from kinder_gym.testing import check_planning_model
 
 
 def _run(model: PlanningModel, state: ObjectCentricState, name: str, seed: int = 0) -> Any:
     """Run the named ground skill with sampled parameters; check it reaches its prediction."""
-    atoms = model.abstract(state)
-    op = next(o for o in model.ground_operators(state) if o.name == name)
-    assert op.applicable(atoms), (name, sorted_atoms(atoms))
-    gs = model.skill(op)
-    params = gs.controller.sample_parameters(state, np.random.default_rng(seed))
-    out = execute_skill(
-        gs.controller, state, params, model.env.transition, model.max_skill_horizon, False
-    )
-    assert out.finished
-    assert model.abstract(out.states[-1]) == op.apply(atoms), name
-    return out.states[-1]
+    rng = np.random.default_rng(seed)
+    return check_planning_model(model, state, [name], rng, stop_on_goal=False)
 
 
 def test_predicates_on_hand_built_states() -> None:

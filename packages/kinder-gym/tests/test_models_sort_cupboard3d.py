@@ -10,7 +10,7 @@ pytest.importorskip("kinder_garden3d")
 from kinder_core import make_object_centric
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position
-from kinder_gym.skills import SkillFailure, execute_skill
+from kinder_gym.testing import check_planning_model
 
 O12 = "kinder/SortClutteredBlocks3D-o12-sort_the_blocks_into_the_cupboard-v0"
 CUBES = [f"{c}_cube{i}" for c in ("blue", "green", "red") for i in (1, 2, 3)]
@@ -105,20 +105,17 @@ def test_operators_put_every_cube_in_before_the_first_rod(env) -> None:
 def _run(model, env, state, name: str, rng: np.random.Generator, tries: int = 6):
     """Run a ground operator's skill (sampling parameters as the planner would) until it
     reaches the operator's prediction; return the final state."""
-    op = next(o for o in model.ground_operators(state) if o.name == name)
-    want = op.apply(model.abstract(state))
-    for _ in range(tries):
-        gs = model.skill(op)
-        params = gs.controller.sample_parameters(state, rng)
-        try:
-            out = execute_skill(gs.controller, state, params, env.transition, 400)
-        except SkillFailure:
-            continue
-        if out.finished and model.abstract(out.states[-1]) == want:
-            high = env.action_space.high
-            assert all(np.all(np.abs(a) <= high + 1e-9) for a in out.actions)
-            return out.states[-1]
-    raise AssertionError(f"{name} never reached its prediction")
+    assert model.env is env
+    return check_planning_model(
+        model,
+        state,
+        [name],
+        rng,
+        samples=tries,
+        max_steps=400,
+        retry_mispredictions=True,
+        check_action_bounds=True,
+    )
 
 
 def test_cube_onto_the_floor_level_and_rod_into_its_compartment(env) -> None:

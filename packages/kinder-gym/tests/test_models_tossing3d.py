@@ -13,6 +13,7 @@ from kinder_core import make_object_centric
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position
 from kinder_gym.skills import SkillFailure, execute_skill
+from kinder_gym.testing import check_planning_model
 
 
 @pytest.fixture(scope="module")
@@ -91,26 +92,19 @@ def test_skills_reach_their_predictions(env) -> None:
     model = create_model(env)
     state = env.reset(seed=1)[0]
     rng = np.random.default_rng(0)
-    ops = {o.name: o for o in model.ground_operators(state)}
     plan = ["Topple(robot, cuboid_barrier)", "Pick(robot, cube_0)",
             "Drop(robot, cube_0, bin_0, cuboid_barrier)"]  # fmt: skip
-    for name in plan:
-        before = model.abstract(state)
-        for _ in range(6):  # sample parameters as the planner would
-            gs = model.skill(ops[name])
-            params = gs.controller.sample_parameters(state, rng)
-            assert gs.controller.params_space.contains(params.astype(np.float32))
-            try:
-                out = execute_skill(gs.controller, state, params, env.transition, 400)
-            except SkillFailure:
-                continue
-            if out.finished and model.abstract(out.states[-1]) == ops[name].apply(before):
-                high = env.action_space.high
-                assert all(np.all(np.abs(a) <= high + 1e-9) for a in out.actions)
-                state = out.states[-1]
-                break
-        else:
-            raise AssertionError(f"{name} never reached its prediction")
+    state = check_planning_model(
+        model,
+        state,
+        plan,
+        rng,
+        samples=6,  # sample parameters as the planner would
+        max_steps=400,
+        retry_mispredictions=True,
+        check_action_bounds=True,
+        check_params_space=True,
+    )
     assert env.goal_atoms(state)["on(cube_0, blocks_goal_region)"]
 
 

@@ -8,7 +8,7 @@ refined: the planner must move the obstruction out first.
 from __future__ import annotations
 
 import abc
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 from gymnasium import spaces
@@ -19,7 +19,7 @@ from kinder_core.state import FloatArray
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.operators import LiftedOperator
-from kinder_gym.skills import Controller, Skill, SkillFailure
+from kinder_gym.skills import Controller, Skill, SkillFailure, execute_skill
 
 ROBOT = Type("robot", ["x", "grip"])
 BLOCK = Type("block", ["x", "width", "held"])
@@ -243,3 +243,85 @@ def make_toy_model(env: ToyPlaceEnv) -> PlanningModel:
         goal_fn=goal,
         max_skill_horizon=40,
     )
+
+
+def check_planning_model(
+    model: PlanningModel,
+    state: ObjectCentricState,
+    steps: Iterable[str],
+    rng: np.random.Generator,
+    *,
+    samples: int = 1,
+    max_steps: int | None = None,
+    stop_on_goal: bool = True,
+    retry_mispredictions: bool = False,
+    monotone_extras: bool = False,
+    require_finished: bool = True,
+    check_action_bounds: bool = False,
+    check_params_space: bool = False,
+) -> ObjectCentricState:
+    """Run the named ground operators' skills in turn and check each reaches its prediction.
+
+    For each name in ``steps`` the ground operator must be applicable in the current abstract
+    state. Its skill then runs with parameters drawn from ``rng`` by its controller's sampler,
+    as a planner would, up to ``samples`` times: a sample whose controller raises
+    :class:`SkillFailure` is skipped. The first rollout that does not fail must finish and its
+    abstract state must equal the operator's prediction; with ``retry_mispredictions`` a
+    rollout that misses it is skipped too, and the first one that reaches it is taken. With
+    ``monotone_extras`` the reached abstract state may also hold atoms of the model's monotone
+    predicates that the operator does not predict. Without ``require_finished`` a rollout cut
+    short (by the horizon, or by reaching the env's goal with ``stop_on_goal``) counts when it
+    reaches the prediction. With ``check_action_bounds`` every
+    action of every rollout must lie within the env's action space bounds, and with
+    ``check_params_space`` every sampled parameter vector within the controller's
+    ``params_space`` (as float32, the dtype the spaces are declared with). Raises
+    ``AssertionError`` naming the step on any miss; returns the state the last skill ends in.
+    """
+    horizon = model.max_skill_horizon if max_steps is None else max_steps
+    for name in steps:
+        atoms = model.abstract(state)
+        ops = [o for o in model.ground_operators(state) if o.name == name]
+        if not ops:
+            raise AssertionError(f"{name}: no such ground operator in this state")
+        op = ops[0]
+        if not op.applicable(atoms):
+            raise AssertionError(f"{name}: not applicable in {sorted(map(str, atoms))}")
+        expected = op.apply(atoms)
+        for _ in range(samples):
+            controller = model.skill(op).controller
+            params = controller.sample_parameters(state, rng)
+            if check_params_space and not controller.params_space.contains(
+                np.asarray(params, dtype=np.float32)
+            ):
+                raise AssertionError(f"{name}: sampled {params} outside {controller.params_space}")
+            try:
+                out = execute_skill(
+                    controller, state, params, model.env.transition, horizon, stop_on_goal
+                )
+            except SkillFailure:
+                continue
+            if check_action_bounds:
+                space = model.env.action_space
+                if not isinstance(space, spaces.Box):
+                    raise TypeError(f"action bounds need a Box action space, not {space}")
+                high = space.high
+                for action in out.actions:
+                    if not np.all(np.abs(action) <= high + 1e-9):
+                        raise AssertionError(f"{name}: action {action} outside {high}")
+            reached = model.abstract(out.states[-1])
+            extra = reached - expected
+            if monotone_extras:
+                extra = frozenset(
+                    a for a in extra if a.predicate.name not in model.monotone_predicates
+                )
+            if (out.finished or not require_finished) and expected <= reached and not extra:
+                state = out.states[-1]
+                break
+            if not retry_mispredictions:
+                raise AssertionError(
+                    f"{name}: finished={out.finished}, reached {sorted(map(str, reached))}, "
+                    f"predicted {sorted(map(str, expected))}"
+                )
+        else:
+            raise AssertionError(f"{name} never reached its prediction in {samples} samples")
+    return state
