@@ -12,8 +12,9 @@ pytest.importorskip("kinder_garden3d")
 from kinder_core import ObjectCentricEnv, ObjectCentricState, make_object_centric
 from kinder_gym.model import PlanningModel
 from kinder_gym.models import create_model
-from kinder_gym.models.kinematic3d.obstruction3d import grasp_poses, polygons_overlap
-from kinder_gym.skills import SkillFailure, execute_skill
+from kinder_gym.models.kinematic3d.obstruction3d import grasp_poses
+from kinder_gym.models.kinematic3d.tidybot import polygons_overlap
+from kinder_gym.testing import check_planning_model
 
 
 def names(atoms: frozenset[object]) -> set[str]:
@@ -26,28 +27,17 @@ def run_chain(
     """Run the named ground operators' skills in turn, sampling parameters as the planner does;
     each must reach its operator's predicted abstract state within five samples."""
     rng = np.random.default_rng(0)
-    for name in steps:
-        ops = {o.name: o for o in model.ground_operators(state)}
-        op = ops[name]
-        atoms = model.abstract(state)
-        assert op.preconditions <= atoms, name
-        for _ in range(5):
-            gs = model.skill(op)
-            params = gs.controller.sample_parameters(state, rng)
-            try:
-                out = execute_skill(
-                    gs.controller, state, params, env.transition, model.max_skill_horizon
-                )
-            except SkillFailure:
-                continue
-            high = env.action_space.high
-            assert all(np.all(np.abs(a) <= high + 1e-9) for a in out.actions)
-            if model.abstract(out.states[-1]) == op.apply(atoms):
-                state = out.states[-1]
-                break
-        else:
-            raise AssertionError(f"{name} never reached its prediction")
-    return state
+    assert model.env is env
+    return check_planning_model(
+        model,
+        state,
+        steps,
+        rng,
+        samples=5,
+        retry_mispredictions=True,
+        check_action_bounds=True,
+        require_finished=False,
+    )
 
 
 # -- Obstruction3D ------------------------------------------------------------------------------

@@ -53,33 +53,30 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.kinematic3d.geometry import compose, invert, quat_yaw, yaw_quat
+from kinder_garden3d.kinematic3d.geometry import quat_yaw
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
 from kinder_garden3d.kinematic3d.obstruction3d import block_on_region
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.kinematic3d.tidybot import (
-    HOME,
-    ConfigChecker,
+    PLACE_GAP,
     ConfigWaypoint,
-    arm_path,
-    base_path,
-    config_delta,
-    solve_ik,
-    tool_to_pinch,
+    TableTopController,
+    hand_atoms,
+    hand_predicates,
+    pick_operator,
+    place_operator,
+    polygons_overlap,
     top_down_quat,
     wrap,
 )
-from kinder_gym.models.kinematic3d.transport3d import APPROACH, ReachController, params_seed
-from kinder_gym.motion_planning import FloatArray, segment_valid
-from kinder_gym.operators import GroundOperator, LiftedOperator
+from kinder_gym.motion_planning import FloatArray
+from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 #: The finger pads reach this far below the pinch point; grasps keep them this far above the
 #: surface under the object (plus a margin).
 PAD_BELOW_PINCH = 0.025
-#: Gap left under a placed object (the env releases within 5 mm of a surface).
-PLACE_GAP = 0.003
 #: Half width of the open gripper across its closing direction (pads included).
 OPEN_HALF_WIDTH = 0.052
 #: The open finger pads: centre distance from the pinch point along the closing direction, and
@@ -88,8 +85,6 @@ PAD_CENTRE = 0.047
 PAD_HALF = (0.0045, 0.011)
 #: Widest object side the open gripper closes across (its stroke is 85 mm).
 MAX_GRASP_WIDTH = 0.08
-#: How far the base backs off from its home pose for objects too close to the arm to reach.
-BACK_OFF = 0.15
 
 
 def footprint(f: FloatArray) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -112,84 +107,6 @@ def overlap(
     return abs(ax - bx) < ahx + bhx + margin and abs(ay - by) < ahy + bhy + margin
 
 
-class TableTopController(ReachController):
-    """Reach from a chosen base pose (driving there with the arm retracted when it differs):
-    arm path to above a pose, straight descent, act, lift back."""
-
-    def _reach(
-        self,
-        state: ObjectCentricState,
-        base: FloatArray,
-        ee_pos: FloatArray,
-        ee_quat: FloatArray,
-        gripper: float,
-        salt: int,
-    ) -> list[ConfigWaypoint]:
-        env = self.context
-        checker = ConfigChecker(env, state)
-        q = np.asarray(state[self.robot][:10], dtype=np.float64)
-        # The IK model stands on z = 0; these envs sink the base to ``base_z``.
-        ee_pos = ee_pos - np.array([0.0, 0.0, float(env.config.base_z)])
-        above = solve_ik(ee_pos + np.array([0.0, 0.0, APPROACH]), ee_quat, base, HOME)
-        at = solve_ik(ee_pos, ee_quat, base, above)
-        q_above = np.concatenate([base, above])
-        q_at = np.concatenate([base, at])
-        # The cheap endpoint tests first: most infeasible samples fail here.
-        if not checker(q_at) or not checker(q_above):
-            raise SkillFailure(f"{type(self).__name__}: the grasp/place pose collides")
-        if not segment_valid(q_above, q_at, checker, np.full(10, 0.05)):
-            raise SkillFailure(f"{type(self).__name__}: the final approach collides")
-        seed = params_seed(self.params, salt)
-        wps: list[ConfigWaypoint] = []
-        if np.max(np.abs(config_delta(q[:3], base))) > 1e-6:
-            # Drive with the arm retracted.
-            if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
-                path = arm_path(checker, q, HOME, seed + 5)
-                wps += [self._wp(p) for p in path]
-                q = path[-1]
-            x0, x1, y0, y1 = env.config.world_bounds
-            path = base_path(checker, q, base, (x0, x1, y0, y1), seed + 7)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
-        path = arm_path(checker, q, above, seed)
-        wps += [self._wp(p) for p in path]
-        return [*wps, self._wp(q_at, gripper), self._wp(q_above)]
-
-    def _first_feasible(
-        self,
-        state: ObjectCentricState,
-        poses: Sequence[tuple[FloatArray, FloatArray]],
-        gripper: float,
-        salt: int,
-    ) -> list[ConfigWaypoint]:
-        """The waypoints of the first end-effector pose that works from the first base pose
-        that works (the current one, the home one, then the home one moved back for poses too
-        close to the arm); else the last failure."""
-        env = self.context
-        current = np.asarray(state[self.robot][:3], dtype=np.float64)
-        home = np.asarray(env.config.home_base_pose, dtype=np.float64)
-        bases = [current]
-        for b in (home, home - np.array([BACK_OFF, 0.0, 0.0])):
-            if all(np.max(np.abs(b - c)) > 1e-6 for c in bases):
-                bases.append(b)
-        error = SkillFailure(f"{type(self).__name__}: no candidate pose")
-        for i, base in enumerate(bases):
-            for k, (pos, quat) in enumerate(poses):
-                try:
-                    return self._reach(state, base, pos, quat, gripper, salt + 10 * k + 100 * i)
-                except SkillFailure as e:
-                    error = e
-        raise error
-
-    def _place_poses(
-        self, state: ObjectCentricState, pos: FloatArray, yaws: Sequence[float]
-    ) -> list[tuple[FloatArray, FloatArray]]:
-        """End-effector poses putting the held object upright at ``pos`` with each yaw."""
-        tf = state[self.robot][12:19]
-        inv_p, inv_q = invert(np.asarray(tf[:3]), np.asarray(tf[3:]))
-        return [tool_to_pinch(*compose(pos, yaw_quat(y), inv_p, inv_q)) for y in yaws]
-
-
 def box_outline(f: FloatArray) -> FloatArray:
     """The (yawed) footprint polygon of a cuboid."""
     yaw = quat_yaw(np.asarray(f[3:7]))
@@ -198,19 +115,6 @@ def box_outline(f: FloatArray) -> FloatArray:
     local = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])
     out: FloatArray = local @ np.array([[c, s], [-s, c]]) + np.array([f[0], f[1]])
     return out
-
-
-def polygons_overlap(a: FloatArray, b: FloatArray, margin: float) -> bool:
-    """Whether two convex polygons come closer than ``margin`` on every separating axis."""
-    for poly in (a, b):
-        edges = np.roll(poly, -1, axis=0) - poly
-        normals = np.column_stack([edges[:, 1], -edges[:, 0]])
-        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-        pa, pb = a @ normals.T, b @ normals.T
-        sep = np.maximum(pb.min(axis=0) - pa.max(axis=0), pa.min(axis=0) - pb.max(axis=0))
-        if np.any(sep >= margin):
-            return False
-    return True
 
 
 def pad_outlines(x: float, y: float, ee_yaw: float, centre: float = PAD_CENTRE) -> list[FloatArray]:
@@ -392,17 +296,14 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     tol = float(env.config.min_placement_dist)  # type: ignore[attr-defined]
     n = len(obstructions)
 
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, CUBOID_TYPE))
+    HandEmpty, Holding = hand_predicates()
     Obstructing = Predicate("Obstructing", (CUBOID_TYPE, CUBOID_TYPE))
     OnTable = Predicate("OnTable", (CUBOID_TYPE,))
     OnRegion = Predicate("OnRegion", (CUBOID_TYPE, CUBOID_TYPE))
     Obstructed = [Predicate(f"Obstructed{k}", (CUBOID_TYPE,)) for k in range(n + 1)]
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms: set[GroundAtom] = set()
-        if state.get(robot_obj, "grasp_active") < 0.5:
-            atoms.add(HandEmpty.ground([robot_obj]))
+        atoms = hand_atoms(state, robot_obj, HandEmpty)
         region = np.asarray(state[region_obj])
         region_fp = footprint(region)
         count = 0
@@ -423,40 +324,31 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
             atoms.add(OnTable.ground([block_obj]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
     o = Variable("?obstruction", CUBOID_TYPE)
     b = Variable("?block", CUBOID_TYPE)
     g = Variable("?region", CUBOID_TYPE)
     picks = [
-        LiftedOperator(
+        pick_operator(
             f"PickObstruction{k}",
-            (r, o, g),
-            frozenset({HandEmpty.lift([r]), Obstructing.lift([o, g]), Obstructed[k].lift([g])}),
-            frozenset({Holding.lift([r, o]), Obstructed[k - 1].lift([g])}),
-            frozenset({HandEmpty.lift([r]), Obstructing.lift([o, g]), Obstructed[k].lift([g])}),
+            HandEmpty,
+            Holding,
+            o,
+            [Obstructing.lift([o, g]), Obstructed[k].lift([g])],
+            also_add=[Obstructed[k - 1].lift([g])],
+            params=[g],
         )
         for k in range(1, n + 1)
     ]
-    place_table = LiftedOperator(
-        "PlaceOnTable",
-        (r, o),
-        frozenset({Holding.lift([r, o])}),
-        frozenset({HandEmpty.lift([r]), OnTable.lift([o])}),
-        frozenset({Holding.lift([r, o])}),
-    )
-    pick_block = LiftedOperator(
-        "PickBlock",
-        (r, b),
-        frozenset({HandEmpty.lift([r]), OnTable.lift([b])}),
-        frozenset({Holding.lift([r, b])}),
-        frozenset({HandEmpty.lift([r]), OnTable.lift([b])}),
-    )
-    place_region = LiftedOperator(
+    place_table = place_operator("PlaceOnTable", HandEmpty, Holding, o, [OnTable.lift([o])])
+    pick_block = pick_operator("PickBlock", HandEmpty, Holding, b, [OnTable.lift([b])])
+    place_region = place_operator(
         "PlaceOnRegion",
-        (r, b, g),
-        frozenset({Holding.lift([r, b]), Obstructed[0].lift([g])}),
-        frozenset({HandEmpty.lift([r]), OnRegion.lift([b, g])}),
-        frozenset({Holding.lift([r, b])}),
+        HandEmpty,
+        Holding,
+        b,
+        [OnRegion.lift([b, g])],
+        also_need=[Obstructed[0].lift([g])],
+        params=[g],
     )
 
     def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
@@ -500,5 +392,4 @@ __all__: Sequence[str] = [
     "grasp_poses",
     "overlap",
     "pad_outlines",
-    "polygons_overlap",
 ]

@@ -14,7 +14,7 @@ HoldingK). Goal: every part in the rack and HandEmpty. The env's goal also forbi
 parts; the place sampler only proposes poses free of the parts already packed.
 
 Skills (base at its home pose unless a pose is out of reach there, see
-:class:`~kinder_gym.models.kinematic3d.obstruction3d.TableTopController`):
+:class:`~kinder_gym.models.kinematic3d.tidybot.TableTopController`):
 
 * Pick: a top-down grasp of the part's peg with the finger pads just above the part's top face,
   four yaws (90° apart) in an order the parameter picks.
@@ -46,14 +46,20 @@ from kinder_garden3d.kinematic3d.object_types import (
 )
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.kinematic3d.obstruction3d import (
+from kinder_gym.models.kinematic3d.tidybot import (
     PLACE_GAP,
+    ConfigWaypoint,
     TableTopController,
+    hand_atoms,
+    hand_predicates,
+    pick_operator,
+    place_operator,
     polygons_overlap,
+    top_down_quat,
+    wrap,
 )
-from kinder_gym.models.kinematic3d.tidybot import ConfigWaypoint, top_down_quat, wrap
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.operators import GroundOperator, LiftedOperator
+from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 #: The finger pads reach this far below the pinch point; peg grasps keep them above the part.
@@ -204,16 +210,14 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     rack_obj: Object = env.rack  # type: ignore[attr-defined]
     parts: list[Object] = list(env.parts)  # type: ignore[attr-defined]
 
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
+    HandEmpty = hand_predicates()[0]
     kinds = {CUBOID_TYPE: "Plate", TRIANGLE_TYPE: "Triangle"}
     holding = {t: Predicate(f"Holding{k}", (ROBOT_TYPE, t)) for t, k in kinds.items()}
     on_table = {t: Predicate(f"OnTable{k}", (t,)) for t, k in kinds.items()}
     in_rack = {t: Predicate(f"InRack{k}", (t, CUBOID_TYPE)) for t, k in kinds.items()}
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms: set[GroundAtom] = set()
-        if state.get(robot_obj, "grasp_active") < 0.5:
-            atoms.add(HandEmpty.ground([robot_obj]))
+        atoms = hand_atoms(state, robot_obj, HandEmpty)
         for p in parts:
             if state.get(p, "grasp_active") > 0.5:
                 atoms.add(holding[p.type].ground([robot_obj, p]))
@@ -223,24 +227,13 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(on_table[p.type].ground([p]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
     k = Variable("?rack", CUBOID_TYPE)
     skills = []
     for t, name in kinds.items():
         p = Variable("?part", t)
-        pick = LiftedOperator(
-            f"Pick{name}",
-            (r, p),
-            frozenset({HandEmpty.lift([r]), on_table[t].lift([p])}),
-            frozenset({holding[t].lift([r, p])}),
-            frozenset({HandEmpty.lift([r]), on_table[t].lift([p])}),
-        )
-        place = LiftedOperator(
-            f"Place{name}",
-            (r, p, k),
-            frozenset({holding[t].lift([r, p])}),
-            frozenset({HandEmpty.lift([r]), in_rack[t].lift([p, k])}),
-            frozenset({holding[t].lift([r, p])}),
+        pick = pick_operator(f"Pick{name}", HandEmpty, holding[t], p, [on_table[t].lift([p])])
+        place = place_operator(
+            f"Place{name}", HandEmpty, holding[t], p, [in_rack[t].lift([p, k])], params=[k]
         )
         skills += [Skill(pick, PickPartController, env), Skill(place, PlaceInRackController, env)]
 

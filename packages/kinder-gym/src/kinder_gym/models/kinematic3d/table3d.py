@@ -13,7 +13,7 @@ HandEmpty, OnTable. Goal: ``HoldingUp(robot)``; the search tries the cubes in tu
 cannot be refined.
 
 The skill is Transport3D's pick
-(:class:`~kinder_gym.models.kinematic3d.transport3d.PickController`): retract, drive the base to a
+(:class:`~kinder_gym.models.kinematic3d.tidybot.PickController`): retract, drive the base to a
 sampled standoff facing the cube (OMPL SE(2) path), reach above it, descend, close and lift by
 0.12 m, which puts the cube's centre 0.145 m above the table top. Imports kinder_garden3d (the
 ``[3d]`` extra).
@@ -27,8 +27,13 @@ from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.kinematic3d.transport3d import PickController
-from kinder_gym.operators import GroundOperator, LiftedOperator
+from kinder_gym.models.kinematic3d.tidybot import (
+    PickController,
+    hand_atoms,
+    hand_predicates,
+    pick_operator,
+)
+from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import Skill
 
 
@@ -38,15 +43,12 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     table_obj: Object = env.table  # type: ignore[attr-defined]
     cubes: list[Object] = list(env.cubes)  # type: ignore[attr-defined]
 
-    HandEmpty = Predicate("HandEmpty", (ROBOT_TYPE,))
-    Holding = Predicate("Holding", (ROBOT_TYPE, CUBOID_TYPE))
+    HandEmpty, Holding = hand_predicates()
     OnTable = Predicate("OnTable", (CUBOID_TYPE,))
     HoldingUp = Predicate("HoldingUp", (ROBOT_TYPE,))
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms: set[GroundAtom] = set()
-        if state.get(robot_obj, "grasp_active") < 0.5:
-            atoms.add(HandEmpty.ground([robot_obj]))
+        atoms = hand_atoms(state, robot_obj, HandEmpty)
         for c in cubes:
             if state.get(c, "grasp_active") > 0.5:
                 atoms.add(Holding.ground([robot_obj, c]))
@@ -58,12 +60,8 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
 
     r = Variable("?robot", ROBOT_TYPE)
     c = Variable("?cube", CUBOID_TYPE)
-    pick = LiftedOperator(
-        "Pick",
-        (r, c),
-        frozenset({HandEmpty.lift([r]), OnTable.lift([c])}),
-        frozenset({Holding.lift([r, c]), HoldingUp.lift([r])}),
-        frozenset({HandEmpty.lift([r]), OnTable.lift([c])}),
+    pick = pick_operator(
+        "Pick", HandEmpty, Holding, c, [OnTable.lift([c])], also_add=[HoldingUp.lift([r])]
     )
 
     def keep(op: GroundOperator, state: ObjectCentricState) -> bool:

@@ -10,7 +10,11 @@ reverted a colliding motion).
 
 :class:`ConfigChecker` tells whether a configuration is collision-free in a state, with the env's
 own pybullet geometry (``env.penetrations``), carrying the held object (and what a held container
-holds) along. Imports kinder_garden3d (the ``[3d]`` extra).
+holds) along. :class:`ReachController` (drive to a standoff, reach down, act, lift) and
+:class:`TableTopController` (reach from the home base pose) are the motions the family models
+build their skills from; :func:`hand_predicates`, :func:`hand_atoms`, :func:`pick_operator` and
+:func:`place_operator` build the hand's predicates and operators every family model shares.
+Imports kinder_garden3d (the ``[3d]`` extra).
 """
 
 from __future__ import annotations
@@ -21,13 +25,30 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from gymnasium import spaces
 
-from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.kinematic3d.geometry import compose, invert, normalize_quat, quat_to_matrix
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, Type
+from kinder_garden3d.kinematic3d.base_env import CONTAINER_MIN_HALF_EXTENT
+from kinder_garden3d.kinematic3d.geometry import (
+    compose,
+    invert,
+    normalize_quat,
+    quat_to_matrix,
+    yaw_quat,
+)
+from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
 from kinder_garden3d.kinematic3d.scene import TOOL_OFFSET
 from kinder_garden3d.robot.description import PINCH_OFFSET, RETRACT, robot_description
 from kinder_garden3d.robot.ik import InverseKinematics
-from kinder_gym.motion_planning import FloatArray, plan_joint_space, plan_se2
+from kinder_gym.concepts import GroundAtom, LiftedAtom, Predicate, Variable
+from kinder_gym.motion_planning import (
+    FloatArray,
+    params_seed,
+    plan_joint_space,
+    plan_se2,
+    segment_valid,
+)
+from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Controller, SkillFailure
 
 _LOW, _HIGH = robot_description().arm_joint_limits
@@ -288,3 +309,289 @@ def solve_ik(
     if not result.success:
         raise SkillFailure(f"no IK solution for the end effector at {np.round(position, 3)}")
     return np.asarray(result.arm_joints, dtype=np.float64)
+
+
+#: Height above the grasp/place pose of the pre-grasp/pre-place end-effector pose (metres).
+APPROACH = 0.12
+#: How far past the objects (and the robot) the base may be planned to go (metres).
+PLANNING_MARGIN = 1.0
+
+
+#: Gap left under a placed object (the env releases within 5 mm of a surface).
+PLACE_GAP = 0.003
+#: How far the base backs off from its home pose for objects too close to the arm to reach.
+BACK_OFF = 0.15
+
+
+def yaw_of(q: FloatArray) -> float:
+    m = quat_to_matrix(q)
+    return math.atan2(float(m[1, 0]), float(m[0, 0]))
+
+
+class ReachController(TidyBotController):
+    """Shared motion pieces: retract, drive, reach down, act, lift."""
+
+    def _wp(self, q: FloatArray, gripper: float = 0.0) -> ConfigWaypoint:
+        return ConfigWaypoint(tuple(float(v) for v in q), gripper)
+
+    def _sequence(
+        self,
+        state: ObjectCentricState,
+        base_goal: FloatArray,
+        ee_pos: FloatArray,
+        ee_quat: FloatArray,
+        gripper: float,
+        salt: int,
+    ) -> list[ConfigWaypoint]:
+        env = self.context
+        checker = ConfigChecker(env, state)
+        q = np.asarray(state[self.robot][:10], dtype=np.float64)
+        seed = params_seed(self.params, salt)
+        wps: list[ConfigWaypoint] = []
+        # 1. Retract the arm where the robot stands.
+        if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
+            path = arm_path(checker, q, HOME, seed)
+            wps += [self._wp(p) for p in path]
+            q = path[-1]
+        # 2. Drive to the standoff.
+        if np.max(np.abs(config_delta(q[:3], base_goal))) > 1e-6:
+            path = base_path(checker, q, base_goal, self.planning_bounds(state), seed)
+            wps += [self._wp(p) for p in path]
+            q = path[-1]
+        # 3. Reach above, then down (IK seeded from the retract pose, then from the approach).
+        above = solve_ik(ee_pos + np.array([0.0, 0.0, APPROACH]), ee_quat, q[:3], HOME)
+        at = solve_ik(ee_pos, ee_quat, q[:3], above)
+        q_above = np.concatenate([q[:3], above])
+        q_at = np.concatenate([q[:3], at])
+        path = arm_path(checker, q, above, seed + 1)
+        wps += [self._wp(p) for p in path]
+        if not segment_valid(q_above, q_at, checker, np.full(10, 0.05)):
+            raise SkillFailure(f"{type(self).__name__}: the final approach collides")
+        wps.append(self._wp(q_at, gripper))
+        # 4. Lift straight back (the env checks that move itself).
+        wps.append(self._wp(q_above))
+        return wps
+
+    def planning_bounds(self, state: ObjectCentricState) -> tuple[float, float, float, float]:
+        """Where the base may go while planning: the box around the robot and every cuboid,
+        grown by ``PLANNING_MARGIN`` and kept within the env's world bounds (which are far
+        larger than the scene: ±10 m)."""
+        xs = [float(state[o][0]) for o in state if o.type in (ROBOT_TYPE, CUBOID_TYPE)]
+        ys = [float(state[o][1]) for o in state if o.type in (ROBOT_TYPE, CUBOID_TYPE)]
+        x0, x1, y0, y1 = self.context.config.world_bounds
+        m = PLANNING_MARGIN
+        return (
+            max(x0, min(xs) - m),
+            min(x1, max(xs) + m),
+            max(y0, min(ys) - m),
+            min(y1, max(ys) + m),
+        )
+
+    def _standoff(
+        self, state: ObjectCentricState, point: FloatArray, dist: float, angle: float
+    ) -> FloatArray:
+        """A base pose ``dist`` from ``point`` facing it, approaching from direction ``angle``."""
+        x, y = point[0] - dist * math.cos(angle), point[1] - dist * math.sin(angle)
+        x0, x1, y0, y1 = self.planning_bounds(state)
+        if not (x0 < x < x1 and y0 < y < y1):
+            raise SkillFailure(f"{type(self).__name__}: standoff ({x:.2f}, {y:.2f}) out of bounds")
+        return np.array([x, y, wrap(angle)])
+
+
+class PickController(ReachController):
+    """Pick an object off the floor or the table from a sampled standoff (a container by the top
+    of its nearest wall). Objects: ``(robot, object)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
+    params_doc = (
+        "(dist, angle): the base stands 0.45 + 0.2·dist metres from the grasp point, approaching "
+        "from (angle − 0.5)·π radians off the line from the robot to the object."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "grasp_active") < 0.5
+
+    def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
+        robot, obj = self.objects
+        dist = 0.45 + 0.2 * float(self.params[0])
+        f = state[obj]
+        pos = np.asarray(f[:3], dtype=np.float64)
+        base = np.asarray(state[robot][:2], dtype=np.float64)
+        offset = (float(self.params[1]) - 0.5) * math.pi
+        angle = math.atan2(pos[1] - base[1], pos[0] - base[0]) + offset
+        obj_yaw = yaw_of(np.asarray(f[3:7]))
+        half = np.asarray(f[9:12], dtype=np.float64)
+        # Upstream's object_type is −1 for every cuboid; a container is what the env carries
+        # things in (every half extent above CONTAINER_MIN_HALF_EXTENT).
+        container = bool(np.all(half > CONTAINER_MIN_HALF_EXTENT))
+        if container:  # grasp the top of the wall nearest the robot
+            c, s = math.cos(obj_yaw), math.sin(obj_yaw)
+            local = np.array([math.cos(angle + math.pi), math.sin(angle + math.pi)])
+            lx, ly = c * local[0] + s * local[1], -s * local[0] + c * local[1]
+            if abs(lx) * half[1] >= abs(ly) * half[0]:
+                off = np.array([math.copysign(half[0] - 0.005, lx), 0.0])
+                close_dir = obj_yaw
+            else:
+                off = np.array([0.0, math.copysign(half[1] - 0.005, ly)])
+                close_dir = obj_yaw + math.pi / 2
+            grasp = np.array(
+                [
+                    pos[0] + c * off[0] - s * off[1],
+                    pos[1] + s * off[0] + c * off[1],
+                    pos[2] + half[2] - 0.02,
+                ]
+            )
+        else:
+            grasp = pos.copy()
+            close_dir = obj_yaw
+        # Fingers close along ee_yaw + π/2: across the wall for the box (two yaws), across any
+        # pair of faces for a cube (four yaws); take the one closest to the approach direction.
+        turns = (0, 2) if container else (0, 1, 2, 3)
+        candidates = [close_dir - math.pi / 2 + k * math.pi / 2 for k in turns]
+        ee_yaw = min(candidates, key=lambda y: abs(wrap(y - angle)))
+        base_goal = self._standoff(state, grasp, dist, angle)
+        return self._sequence(state, base_goal, grasp, top_down_quat(ee_yaw), -1.0, salt=1)
+
+
+class TableTopController(ReachController):
+    """Reach from a chosen base pose (driving there with the arm retracted when it differs):
+    arm path to above a pose, straight descent, act, lift back."""
+
+    def _reach(
+        self,
+        state: ObjectCentricState,
+        base: FloatArray,
+        ee_pos: FloatArray,
+        ee_quat: FloatArray,
+        gripper: float,
+        salt: int,
+    ) -> list[ConfigWaypoint]:
+        env = self.context
+        checker = ConfigChecker(env, state)
+        q = np.asarray(state[self.robot][:10], dtype=np.float64)
+        # The IK model stands on z = 0; these envs sink the base to ``base_z``.
+        ee_pos = ee_pos - np.array([0.0, 0.0, float(env.config.base_z)])
+        above = solve_ik(ee_pos + np.array([0.0, 0.0, APPROACH]), ee_quat, base, HOME)
+        at = solve_ik(ee_pos, ee_quat, base, above)
+        q_above = np.concatenate([base, above])
+        q_at = np.concatenate([base, at])
+        # The cheap endpoint tests first: most infeasible samples fail here.
+        if not checker(q_at) or not checker(q_above):
+            raise SkillFailure(f"{type(self).__name__}: the grasp/place pose collides")
+        if not segment_valid(q_above, q_at, checker, np.full(10, 0.05)):
+            raise SkillFailure(f"{type(self).__name__}: the final approach collides")
+        seed = params_seed(self.params, salt)
+        wps: list[ConfigWaypoint] = []
+        if np.max(np.abs(config_delta(q[:3], base))) > 1e-6:
+            # Drive with the arm retracted.
+            if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
+                path = arm_path(checker, q, HOME, seed + 5)
+                wps += [self._wp(p) for p in path]
+                q = path[-1]
+            x0, x1, y0, y1 = env.config.world_bounds
+            path = base_path(checker, q, base, (x0, x1, y0, y1), seed + 7)
+            wps += [self._wp(p) for p in path]
+            q = path[-1]
+        path = arm_path(checker, q, above, seed)
+        wps += [self._wp(p) for p in path]
+        return [*wps, self._wp(q_at, gripper), self._wp(q_above)]
+
+    def _first_feasible(
+        self,
+        state: ObjectCentricState,
+        poses: Sequence[tuple[FloatArray, FloatArray]],
+        gripper: float,
+        salt: int,
+    ) -> list[ConfigWaypoint]:
+        """The waypoints of the first end-effector pose that works from the first base pose
+        that works (the current one, the home one, then the home one moved back for poses too
+        close to the arm); else the last failure."""
+        env = self.context
+        current = np.asarray(state[self.robot][:3], dtype=np.float64)
+        home = np.asarray(env.config.home_base_pose, dtype=np.float64)
+        bases = [current]
+        for b in (home, home - np.array([BACK_OFF, 0.0, 0.0])):
+            if all(np.max(np.abs(b - c)) > 1e-6 for c in bases):
+                bases.append(b)
+        error = SkillFailure(f"{type(self).__name__}: no candidate pose")
+        for i, base in enumerate(bases):
+            for k, (pos, quat) in enumerate(poses):
+                try:
+                    return self._reach(state, base, pos, quat, gripper, salt + 10 * k + 100 * i)
+                except SkillFailure as e:
+                    error = e
+        raise error
+
+    def _place_poses(
+        self, state: ObjectCentricState, pos: FloatArray, yaws: Sequence[float]
+    ) -> list[tuple[FloatArray, FloatArray]]:
+        """End-effector poses putting the held object upright at ``pos`` with each yaw."""
+        tf = state[self.robot][12:19]
+        inv_p, inv_q = invert(np.asarray(tf[:3]), np.asarray(tf[3:]))
+        return [tool_to_pinch(*compose(pos, yaw_quat(y), inv_p, inv_q)) for y in yaws]
+
+
+def polygons_overlap(a: FloatArray, b: FloatArray, margin: float) -> bool:
+    """Whether two convex polygons come closer than ``margin`` on every separating axis."""
+    for poly in (a, b):
+        edges = np.roll(poly, -1, axis=0) - poly
+        normals = np.column_stack([edges[:, 1], -edges[:, 0]])
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        pa, pb = a @ normals.T, b @ normals.T
+        sep = np.maximum(pb.min(axis=0) - pa.max(axis=0), pa.min(axis=0) - pb.max(axis=0))
+        if np.any(sep >= margin):
+            return False
+    return True
+
+
+def hand_predicates(held: Type = CUBOID_TYPE) -> tuple[Predicate, Predicate]:
+    """``HandEmpty(robot)`` and ``Holding(robot, held)``, the hand's predicates of the
+    Kinematic3D models (each model's abstraction decides when they hold)."""
+    return Predicate("HandEmpty", (ROBOT_TYPE,)), Predicate("Holding", (ROBOT_TYPE, held))
+
+
+def hand_atoms(state: ObjectCentricState, robot: Object, hand_empty: Predicate) -> set[GroundAtom]:
+    """``{HandEmpty(robot)}`` when the robot holds nothing (its grasp is off), else ``{}``."""
+    if state.get(robot, "grasp_active") < 0.5:
+        return {hand_empty.ground([robot])}
+    return set()
+
+
+def pick_operator(
+    name: str,
+    hand_empty: Predicate,
+    holding: Predicate,
+    item: Variable,
+    source: Sequence[LiftedAtom],
+    also_add: Sequence[LiftedAtom] = (),
+    params: Sequence[Variable] = (),
+) -> LiftedOperator:
+    """``name(?robot, item, *params)``: with the hand empty and ``source`` true, hold ``item``
+    (and make ``also_add`` true); the hand being empty and ``source`` are deleted."""
+    r = Variable("?robot", ROBOT_TYPE)
+    pre = frozenset({hand_empty.lift([r]), *source})
+    return LiftedOperator(
+        name, (r, item, *params), pre, frozenset({holding.lift([r, item]), *also_add}), pre
+    )
+
+
+def place_operator(
+    name: str,
+    hand_empty: Predicate,
+    holding: Predicate,
+    item: Variable,
+    target: Sequence[LiftedAtom],
+    also_need: Sequence[LiftedAtom] = (),
+    params: Sequence[Variable] = (),
+) -> LiftedOperator:
+    """``name(?robot, item, *params)``: holding ``item`` (and with ``also_need`` true), let go
+    of it so that ``target`` holds; the hand is empty again and ``Holding`` is deleted."""
+    r = Variable("?robot", ROBOT_TYPE)
+    held = holding.lift([r, item])
+    return LiftedOperator(
+        name,
+        (r, item, *params),
+        frozenset({held, *also_need}),
+        frozenset({hand_empty.lift([r]), *target}),
+        frozenset({held}),
+    )
