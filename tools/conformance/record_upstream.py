@@ -27,6 +27,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
+import kinder_core  # noqa: E402
 from benchmarks.upstream import ensure_upstream_venv  # noqa: E402
 from kinder_core.conformance import fixture_name  # noqa: E402
 from kinder_core.registration import CATEGORIES, FAMILY_SOURCES, list_envs  # noqa: E402
@@ -62,6 +63,23 @@ def default_scripts(env_id: str) -> Path | None:
     return path if path.exists() else None
 
 
+def our_plans(env_id: str, num: int, timeout: float) -> list[dict[str, object]]:
+    """Bilevel-planner plans made in our package from seeds 1000.. (analysis seeds): the
+    worker replays each from upstream's state after the same seeded reset, which is our initial
+    state only where our reset draws upstream's (see docs/conformance.md, seed for seed)."""
+    from kinder_bench.baselines.bilevel_planning import BilevelPlanningArgs, plan_episode
+
+    env = kinder_core.make_object_centric(env_id)
+    plans: list[dict[str, object]] = []
+    for seed in range(1000, 1000 + num):
+        state, _ = env.reset(seed=seed)
+        plan, _ = plan_episode(env, state, BilevelPlanningArgs(planning_timeout=timeout), seed)
+        if plan is not None:
+            actions = [[float(v) for v in a] for a in plan.actions]
+            plans.append({"name": f"bp-s{seed}", "seed": seed, "actions": actions})
+    return plans
+
+
 def upstream_env() -> dict[str, str]:
     """The environment upstream needs here (see benchmarks/upstream.py's run_speed)."""
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
@@ -83,6 +101,8 @@ def record(python: Path, env_id: str, out_dir: Path, args: argparse.Namespace) -
         "steps": args.steps,
         "scripts": str(Path(scripts).resolve()) if scripts else None,
     }
+    if args.plans:
+        request["plans"] = our_plans(env_id, args.plans, args.plan_timeout)
     with tempfile.TemporaryDirectory() as tmp:  # outside the repo: no workspace on the path
         proc = subprocess.run(
             [str(python), str(WORKER), json.dumps(request)],
@@ -109,6 +129,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--steps", type=int, default=60, help="steps per random trajectory")
     parser.add_argument("--scripts", type=Path, help="scripts module (numpy only)")
     parser.add_argument("--no-scripts", action="store_true", help="record no scripted runs")
+    parser.add_argument("--plans", type=int, default=0, help="our BP plans (seeds 1000..)")
+    parser.add_argument("--plan-timeout", type=float, default=60.0, help="seconds per plan")
     args = parser.parse_args(argv)
     ids = list(args.ids) + (expand_family(args.family) if args.family else [])
     if not ids:

@@ -175,6 +175,16 @@ def main() -> None:
     for r in range(int(req["random"])):
         policy = random_policy(up, 1000 + r)
         trajectories.append(run_trajectory(up, f"random-{r}", "random", r, policy, req["steps"]))
+    for plan in req.get("plans", []):
+        # Actions planned in our package from the same seeded state (where our reset draws
+        # upstream's initial state), replayed here from upstream's.
+        actions = iter(plan["actions"])
+        policy = lambda state, k, it=actions: next(it, None)  # noqa: E731
+        trajectories.append(
+            run_trajectory(
+                up, plan["name"], "plan", int(plan["seed"]), policy, len(plan["actions"])
+            )
+        )
     if req.get("scripts"):
         module = load_scripts(req["scripts"])
         seeds = list(getattr(module, "SEEDS", [0, 1]))
