@@ -46,14 +46,13 @@ from kinder_garden3d.kinematic3d.object_types import (
 )
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator, place_operator
 from kinder_gym.models.kinematic3d.tidybot import (
     PLACE_GAP,
     ConfigWaypoint,
     TableTopController,
     hand_atoms,
     hand_predicates,
-    pick_operator,
-    place_operator,
     polygons_overlap,
     top_down_quat,
     wrap,

@@ -27,11 +27,11 @@ from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator
 from kinder_gym.models.kinematic3d.tidybot import (
     PickController,
     hand_atoms,
     hand_predicates,
-    pick_operator,
 )
 from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import Skill

@@ -12,8 +12,9 @@ reverted a colliding motion).
 own pybullet geometry (``env.penetrations``), carrying the held object (and what a held container
 holds) along. :class:`ReachController` (drive to a standoff, reach down, act, lift) and
 :class:`TableTopController` (reach from the home base pose) are the motions the family models
-build their skills from; :func:`hand_predicates`, :func:`hand_atoms`, :func:`pick_operator` and
-:func:`place_operator` build the hand's predicates and operators every family model shares.
+build their skills from; :func:`hand_predicates` and :func:`hand_atoms` build the hand's
+predicates every family model shares (its pick/place operators come from
+:mod:`kinder_gym.models.hand`).
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
 
@@ -40,7 +41,7 @@ from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
 from kinder_garden3d.kinematic3d.scene import TOOL_OFFSET
 from kinder_garden3d.robot.description import PINCH_OFFSET, RETRACT, robot_description
 from kinder_garden3d.robot.ik import InverseKinematics
-from kinder_gym.concepts import GroundAtom, LiftedAtom, Predicate, Variable
+from kinder_gym.concepts import GroundAtom, Predicate
 from kinder_gym.motion_planning import (
     FloatArray,
     params_seed,
@@ -48,7 +49,6 @@ from kinder_gym.motion_planning import (
     plan_se2,
     segment_valid,
 )
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Controller, SkillFailure
 
 _LOW, _HIGH = robot_description().arm_joint_limits
@@ -555,43 +555,3 @@ def hand_atoms(state: ObjectCentricState, robot: Object, hand_empty: Predicate) 
     if state.get(robot, "grasp_active") < 0.5:
         return {hand_empty.ground([robot])}
     return set()
-
-
-def pick_operator(
-    name: str,
-    hand_empty: Predicate,
-    holding: Predicate,
-    item: Variable,
-    source: Sequence[LiftedAtom],
-    also_add: Sequence[LiftedAtom] = (),
-    params: Sequence[Variable] = (),
-) -> LiftedOperator:
-    """``name(?robot, item, *params)``: with the hand empty and ``source`` true, hold ``item``
-    (and make ``also_add`` true); the hand being empty and ``source`` are deleted."""
-    r = Variable("?robot", ROBOT_TYPE)
-    pre = frozenset({hand_empty.lift([r]), *source})
-    return LiftedOperator(
-        name, (r, item, *params), pre, frozenset({holding.lift([r, item]), *also_add}), pre
-    )
-
-
-def place_operator(
-    name: str,
-    hand_empty: Predicate,
-    holding: Predicate,
-    item: Variable,
-    target: Sequence[LiftedAtom],
-    also_need: Sequence[LiftedAtom] = (),
-    params: Sequence[Variable] = (),
-) -> LiftedOperator:
-    """``name(?robot, item, *params)``: holding ``item`` (and with ``also_need`` true), let go
-    of it so that ``target`` holds; the hand is empty again and ``Holding`` is deleted."""
-    r = Variable("?robot", ROBOT_TYPE)
-    held = holding.lift([r, item])
-    return LiftedOperator(
-        name,
-        (r, item, *params),
-        frozenset({held, *also_need}),
-        frozenset({hand_empty.lift([r]), *target}),
-        frozenset({held}),
-    )

@@ -37,14 +37,13 @@ from kinder_garden3d.kinematic3d.geometry import quat_to_matrix
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator, place_operator
 from kinder_gym.models.kinematic3d.tidybot import (
     ConfigWaypoint,
     PickController,
     ReachController,
     hand_atoms,
     hand_predicates,
-    pick_operator,
-    place_operator,
     tool_to_pinch,
     top_down_quat,
 )

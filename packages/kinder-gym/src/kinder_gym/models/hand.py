@@ -1,0 +1,57 @@
+"""The hand's pick and place operators, shared by the planning models of every robot kind.
+
+A model's hand has ``HandEmpty(robot)`` and ``Holding(robot, item)`` predicates (each robot base
+builds them for its robot type); picking and placing change them the same way in every family,
+whatever else (the source or target of the item) they need and change.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from kinder_gym.concepts import LiftedAtom, Predicate, Variable
+from kinder_gym.operators import LiftedOperator
+
+
+def pick_operator(
+    name: str,
+    hand_empty: Predicate,
+    holding: Predicate,
+    item: Variable,
+    source: Sequence[LiftedAtom],
+    also_add: Sequence[LiftedAtom] = (),
+    params: Sequence[Variable] = (),
+) -> LiftedOperator:
+    """``name(?robot, item, *params)``, ``?robot`` of ``hand_empty``'s type: with the hand empty
+    and ``source`` true, hold ``item`` (and make ``also_add`` true); the hand being empty and
+    ``source`` are deleted."""
+    r = Variable("?robot", hand_empty.types[0])
+    pre = frozenset({hand_empty.lift([r]), *source})
+    return LiftedOperator(
+        name, (r, item, *params), pre, frozenset({holding.lift([r, item]), *also_add}), pre
+    )
+
+
+def place_operator(
+    name: str,
+    hand_empty: Predicate,
+    holding: Predicate,
+    item: Variable,
+    target: Sequence[LiftedAtom],
+    also_need: Sequence[LiftedAtom] = (),
+    params: Sequence[Variable] = (),
+) -> LiftedOperator:
+    """``name(?robot, item, *params)``: holding ``item`` (and with ``also_need`` true), let go
+    of it so that ``target`` holds; the hand is empty again and ``Holding`` is deleted."""
+    r = Variable("?robot", hand_empty.types[0])
+    held = holding.lift([r, item])
+    return LiftedOperator(
+        name,
+        (r, item, *params),
+        frozenset({held, *also_need}),
+        frozenset({hand_empty.lift([r]), *target}),
+        frozenset({held}),
+    )
+
+
+__all__: Sequence[str] = ["pick_operator", "place_operator"]
