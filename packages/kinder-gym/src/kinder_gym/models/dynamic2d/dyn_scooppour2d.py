@@ -68,9 +68,7 @@ from kinder_gym.models.dynamic2d.kin_robot import (
     BASE_RADIUS,
     FINGER_GAP,
     FINGER_HEIGHT,
-    FINGER_WIDTH,
     GRIPPER_BASE_HEIGHT,
-    GRIPPER_BASE_WIDTH,
     THETA,
     X,
     Y,
@@ -88,7 +86,9 @@ SCOOP_CORNER_X = 1.62
 #: x (metres) of the robot's base when it pours.
 POUR_X = 2.7
 #: How far (metres) down from the handle's top the fingertips reach.
-GRASP_OVERLAP = 0.1
+# A target counts as reached within this (metres, radians): upstream's PD controller leaves
+# residuals of up to ~1e-5 after an action.
+REACHED = 1e-4
 #: Speed of the slide into the pile (fraction of the action bounds).
 SLIDE_SPEED = 0.75
 #: Clearance (metres) the robot and the scoop keep from the wall's left face while rising.
@@ -115,6 +115,8 @@ class _PhasedController(Controller):
     """Follows phases of targets for the kin robot; each phase is computed from the state observed
     when it starts. A step that should move the base or arm but does not (a static contact
     reverted it) ends the current target."""
+
+    keep_grip = False  # never open the fingers (a skill that carries what it holds)
 
     @abc.abstractmethod
     def phases(self) -> list[Phase]:
@@ -147,11 +149,16 @@ class _PhasedController(Controller):
             target, speed, wait = self._targets[0]
             d = target - q
             d[2] = wrap(float(d[2]))
+            if self.keep_grip:
+                # Any opening of the fingers releases what they hold; closing fingers pass
+                # through a held object, so the gap may end below the one a phase planned.
+                d[4] = min(float(d[4]), 0.0)
+            tol = REACHED
             stuck = self._last is not None and (
-                (np.max(np.abs(d[:4])) > 1e-6 and np.allclose(q[:4], self._last[:4], atol=1e-9))
-                or (np.max(np.abs(d[:4])) <= 1e-6 and abs(q[4] - self._last[4]) <= 1e-9)
+                (np.max(np.abs(d[:4])) > tol and np.allclose(q[:4], self._last[:4], atol=1e-9))
+                or (np.max(np.abs(d[:4])) <= tol and abs(q[4] - self._last[4]) <= 1e-9)
             )
-            if np.max(np.abs(d)) > 1e-6 and not stuck:
+            if np.max(np.abs(d)) > tol and not stuck:
                 n = max(1, math.ceil(float(np.max(np.abs(d) / (self._max * speed))) - 1e-9))
                 self._last = q
                 return d / n
@@ -194,9 +201,10 @@ class GraspScoopController(_PhasedController):
             raise SkillFailure("GraspScoop: the scoop's handle is not upright")
         w, s1 = state.get(hook, "width"), state.get(hook, "length_side1")
         br = float(v[BASE_RADIUS])
-        reach = br + float(v[GRIPPER_BASE_WIDTH]) / 2 + float(v[FINGER_WIDTH])
         gx = float(h[0]) - w / 2
-        gy = float(h[1]) + s1 - GRASP_OVERLAP + reach
+        # A grasp needs a finger contact on the fingers' first half (which start at the gripper
+        # base's centre): the gripper base's centre stops 0.03 above the handle's top.
+        gy = float(h[1]) + s1 + br + 0.03
         open_gap = float(v[GRIPPER_BASE_HEIGHT])
         closed = max(2 * float(v[FINGER_HEIGHT]), w + float(v[FINGER_HEIGHT]) - 0.04)
         return [
@@ -225,6 +233,8 @@ class ScoopAndPourController(_PhasedController):
         "tip-down, slides left until its tip is at x = tip_stop metres, is carried tilted "
         "carry_tilt radians tip-up, and pours turned pour radians tip-down."
     )
+
+    keep_grip = True
 
     def initiable(self, state: ObjectCentricState) -> bool:
         return state.get(self.objects[1], "held") > 0.5
