@@ -21,14 +21,16 @@ def pick_operator(
     source: Sequence[LiftedAtom],
     also_add: Sequence[LiftedAtom] = (),
     params: Sequence[Variable] = (),
+    delete_source: bool = True,
 ) -> LiftedOperator:
     """``name(?robot, item, *params)``, ``?robot`` of ``hand_empty``'s type: with the hand empty
     and ``source`` true, hold ``item`` (and make ``also_add`` true); the hand being empty and
-    ``source`` are deleted."""
+    (unless not ``delete_source``) ``source`` are deleted."""
     r = Variable("?robot", hand_empty.types[0])
     pre = frozenset({hand_empty.lift([r]), *source})
+    delete = pre if delete_source else frozenset({hand_empty.lift([r])})
     return LiftedOperator(
-        name, (r, item, *params), pre, frozenset({holding.lift([r, item]), *also_add}), pre
+        name, (r, item, *params), pre, frozenset({holding.lift([r, item]), *also_add}), delete
     )
 
 
@@ -40,9 +42,11 @@ def place_operator(
     target: Sequence[LiftedAtom],
     also_need: Sequence[LiftedAtom] = (),
     params: Sequence[Variable] = (),
+    also_delete: Sequence[LiftedAtom] = (),
 ) -> LiftedOperator:
     """``name(?robot, item, *params)``: holding ``item`` (and with ``also_need`` true), let go
-    of it so that ``target`` holds; the hand is empty again and ``Holding`` is deleted."""
+    of it so that ``target`` holds; the hand is empty again and ``Holding`` (and ``also_delete``)
+    are deleted."""
     r = Variable("?robot", hand_empty.types[0])
     held = holding.lift([r, item])
     return LiftedOperator(
@@ -50,7 +54,7 @@ def place_operator(
         (r, item, *params),
         frozenset({held, *also_need}),
         frozenset({hand_empty.lift([r]), *target}),
-        frozenset({held}),
+        frozenset({held, *also_delete}),
     )
 
 

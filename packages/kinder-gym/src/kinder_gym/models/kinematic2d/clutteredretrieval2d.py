@@ -91,6 +91,7 @@ from kinder_garden2d.kinematic2d.object_types import (
 from kinder_garden2d.kinematic2d.predicates import is_inside
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator, place_operator
 from kinder_gym.models.kinematic2d.crv import (
     ARM_JOINT,
     ARM_LENGTH,
@@ -102,6 +103,7 @@ from kinder_gym.models.kinematic2d.crv import (
     CRVController,
     Waypoint,
     checked_waypoints,
+    hand_predicates,
     robot_config,
 )
 from kinder_gym.motion_planning import FloatArray, params_seed, plan_se2
@@ -218,10 +220,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     obstruction_set = frozenset(obstructions)
     n = len(obstructions)
 
-    HandEmpty = Predicate("HandEmpty", (CRV_ROBOT,), lambda s, o: not _held(env, s.data))
-    HoldingTgt = Predicate(
-        "HoldingTgt", (CRV_ROBOT, TARGET_BLOCK), lambda s, o: o[1] in _held(env, s.data)
-    )
+    HandEmpty, HoldingTgt = hand_predicates(env, TARGET_BLOCK, "HoldingTgt")
     HoldingObstruction = Predicate(
         "HoldingObstruction",
         (CRV_ROBOT,),
@@ -277,19 +276,11 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         )
         for k in range(1, n + 1)
     ]
-    pick_target = LiftedOperator(
-        "PickTgt",
-        (r, t),
-        frozenset({HandEmpty.lift([r]), counts[0].lift([])}),
-        frozenset({HoldingTgt.lift([r, t])}),
-        frozenset({HandEmpty.lift([r])}),
+    pick_target = pick_operator(
+        "PickTgt", HandEmpty, HoldingTgt, t, [counts[0].lift([])], delete_source=False
     )
-    place_target = LiftedOperator(
-        "PlaceTgt",
-        (r, t, g),
-        frozenset({HoldingTgt.lift([r, t])}),
-        frozenset({HandEmpty.lift([r]), Inside.lift([t, g])}),
-        frozenset({HoldingTgt.lift([r, t])}),
+    place_target = place_operator(
+        "PlaceTgt", HandEmpty, HoldingTgt, t, [Inside.lift([t, g])], params=[g]
     )
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:

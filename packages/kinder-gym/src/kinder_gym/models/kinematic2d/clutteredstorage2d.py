@@ -81,6 +81,7 @@ from kinder_garden2d.kinematic2d.object_types import CRV_ROBOT, SHELF, TARGET_BL
 from kinder_garden2d.kinematic2d.predicates import is_inside_shelf, rectangle_vertices
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator, place_operator
 from kinder_gym.models.kinematic2d.crv import (
     ARM_JOINT,
     ARM_LENGTH,
@@ -88,6 +89,7 @@ from kinder_gym.models.kinematic2d.crv import (
     GRIPPER_HEIGHT,
     GRIPPER_WIDTH,
     CRVCollisionChecker,
+    hand_predicates,
     robot_config,
 )
 from kinder_gym.models.kinematic2d.crv_script import (
@@ -492,14 +494,10 @@ class PlaceInShelfController(_StorageController):
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The ClutteredStorage2D planning model (any number of blocks)."""
 
-    def held(state: ObjectCentricState) -> list[Object]:
-        return env.world.held_objects(state.data)  # type: ignore[attr-defined, no-any-return]
-
     def clear(state: ObjectCentricState, shelf: Object) -> bool:
         return not any(obstructs(state, b, shelf) for b in state.get_objects(TARGET_BLOCK))
 
-    Holding = Predicate("Holding", (CRV_ROBOT, TARGET_BLOCK), lambda s, o: o[1] in held(s))
-    HandEmpty = Predicate("HandEmpty", (CRV_ROBOT,), lambda s, o: not held(s))
+    HandEmpty, Holding = hand_predicates(env, TARGET_BLOCK)
     OnShelf = Predicate(
         "OnShelf", (TARGET_BLOCK, SHELF), lambda s, o: is_inside_shelf(s, o[0], o[1])
     )
@@ -519,19 +517,24 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         frozenset({ShelfClear.lift([sh])}),
         frozenset({ShelfCluttered.lift([sh])}),
     )
-    pick = LiftedOperator(
+    pick = pick_operator(
         "PickFromFloor",
-        (r, b, sh),
-        frozenset({HandEmpty.lift([r]), NotOnShelf.lift([b, sh])}),
-        frozenset({Holding.lift([r, b])}),
-        frozenset({HandEmpty.lift([r])}),
+        HandEmpty,
+        Holding,
+        b,
+        [NotOnShelf.lift([b, sh])],
+        params=[sh],
+        delete_source=False,
     )
-    place = LiftedOperator(
+    place = place_operator(
         "PlaceInShelf",
-        (r, b, sh),
-        frozenset({Holding.lift([r, b]), NotOnShelf.lift([b, sh]), ShelfClear.lift([sh])}),
-        frozenset({HandEmpty.lift([r]), OnShelf.lift([b, sh])}),
-        frozenset({Holding.lift([r, b]), NotOnShelf.lift([b, sh])}),
+        HandEmpty,
+        Holding,
+        b,
+        [OnShelf.lift([b, sh])],
+        also_need=[NotOnShelf.lift([b, sh]), ShelfClear.lift([sh])],
+        params=[sh],
+        also_delete=[NotOnShelf.lift([b, sh])],
     )
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:

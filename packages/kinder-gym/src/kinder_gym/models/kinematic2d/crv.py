@@ -10,7 +10,8 @@ colliding step).
 
 :class:`CRVCollisionChecker` answers "is the robot (with what it holds) collision-free at this
 pose?" for motion planning, with the env's own geometry kernels and z-order rules; extra obstacles
-(e.g. buttons the robot must not touch) can be added.
+(e.g. buttons the robot must not touch) can be added. :func:`hand_predicates` builds the
+suction hand's ``HandEmpty``/``Holding`` predicates every Kinematic2D model shares.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from kinder_core import Object, ObjectCentricState
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, Type
 from kinder_garden2d.geometry import (
     circle_circle_overlap,
     obb_circle_overlap,
@@ -31,7 +32,8 @@ from kinder_garden2d.geometry import (
     wrap_angle,
 )
 from kinder_garden2d.kinematic2d.crv import Bodies, KinematicWorld, robot_geometry
-from kinder_garden2d.kinematic2d.object_types import ZOrder
+from kinder_garden2d.kinematic2d.object_types import CRV_ROBOT, ZOrder
+from kinder_gym.concepts import Predicate
 from kinder_gym.motion_planning import FloatArray, interpolate_path, plan_se2
 from kinder_gym.skills import Controller, SkillFailure
 
@@ -401,3 +403,42 @@ def plan_base_path(
     if path is None:
         raise SkillFailure(f"no collision-free base path from {start.round(3)} to {goal.round(3)}")
     return path
+
+
+def world_sampling_bounds(
+    env: ObjectCentricEnv, margin: float
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The env's world box shrunk by ``margin`` (metres), for sampling base poses."""
+    xmin, xmax, ymin, ymax = env.config.world_bounds  # type: ignore[attr-defined]
+    return (xmin + margin, xmax - margin), (ymin + margin, ymax - margin)
+
+
+def checked_base_waypoints(
+    checker: CRVCollisionChecker,
+    path: Sequence[FloatArray],
+    arm: float,
+    env: ObjectCentricEnv,
+    vacuum: float,
+) -> list[Waypoint]:
+    """Waypoints along a base path, after checking every pose the follower will step through
+    (the env checks collisions only at the end of each step)."""
+    high = np.asarray(env.action_space.high, dtype=np.float64)[:3]
+    for q in interpolate_path(path, high, wrap_dims=(2,))[1:]:
+        if not checker(q):
+            raise SkillFailure(f"an execution step of the path collides at {q.round(3)}")
+    return [Waypoint(float(q[0]), float(q[1]), float(q[2]), arm, vacuum) for q in path[1:]]
+
+
+def held_objects(env: ObjectCentricEnv, state: ObjectCentricState) -> list[Object]:
+    """The objects the robot's suction holds in ``state`` (the env's world decides)."""
+    return env.world.held_objects(state.data)  # type: ignore[attr-defined, no-any-return]
+
+
+def hand_predicates(
+    env: ObjectCentricEnv, held: Type, holding_name: str = "Holding"
+) -> tuple[Predicate, Predicate]:
+    """``HandEmpty(robot)`` (the suction holds nothing) and ``holding_name(robot, held)`` (it
+    holds that object), the hand's predicates of the Kinematic2D models."""
+    hand_empty = Predicate("HandEmpty", (CRV_ROBOT,), lambda s, o: not held_objects(env, s))
+    holding = Predicate(holding_name, (CRV_ROBOT, held), lambda s, o: o[1] in held_objects(env, s))
+    return hand_empty, holding

@@ -33,10 +33,12 @@ from kinder_gym.models.kinematic2d.crv import (
     CRVCollisionChecker,
     CRVController,
     Waypoint,
+    checked_base_waypoints,
     plan_base_path,
     robot_config,
+    world_sampling_bounds,
 )
-from kinder_gym.motion_planning import FloatArray, interpolate_path, path_valid
+from kinder_gym.motion_planning import FloatArray, path_valid
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
@@ -59,14 +61,6 @@ MOVE_TO_TARGET = LiftedOperator(
     add_effects=frozenset({AtTarget.lift([_R, _T])}),
     delete_effects=frozenset({NotAtTarget.lift([_R, _T])}),
 )
-
-
-def world_sampling_bounds(
-    env: ObjectCentricEnv, margin: float
-) -> tuple[tuple[float, float], tuple[float, float]]:
-    """The env's world box shrunk by ``margin`` (metres), for sampling base poses."""
-    xmin, xmax, ymin, ymax = env.config.world_bounds  # type: ignore[attr-defined]
-    return (xmin + margin, xmax - margin), (ymin + margin, ymax - margin)
 
 
 class MoveToTargetController(CRVController):
@@ -125,7 +119,7 @@ class MoveToTargetController(CRVController):
             path = plan_base_path(
                 checker, start, goal, world_sampling_bounds(env, margin), seed=seed
             )
-        return checked_waypoints(checker, path, arm, env, vacuum=0.0)
+        return checked_base_waypoints(checker, path, arm, env, vacuum=0.0)
 
 
 def passage_gaps(
@@ -182,22 +176,6 @@ def passage_path(
     if path_valid(path, checker, max_step, wrap_dims=(2,)):
         return path
     return None
-
-
-def checked_waypoints(
-    checker: CRVCollisionChecker,
-    path: Sequence[FloatArray],
-    arm: float,
-    env: ObjectCentricEnv,
-    vacuum: float,
-) -> list[Waypoint]:
-    """Waypoints along a base path, after checking every pose the follower will step through
-    (the env checks collisions only at the end of each step)."""
-    high = np.asarray(env.action_space.high, dtype=np.float64)[:3]
-    for q in interpolate_path(path, high, wrap_dims=(2,))[1:]:
-        if not checker(q):
-            raise SkillFailure(f"an execution step of the path collides at {q.round(3)}")
-    return [Waypoint(float(q[0]), float(q[1]), float(q[2]), arm, vacuum) for q in path[1:]]
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:

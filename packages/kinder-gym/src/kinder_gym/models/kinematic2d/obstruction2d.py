@@ -65,6 +65,7 @@ from kinder_garden2d.kinematic2d.object_types import CRV_ROBOT, RECTANGLE, TARGE
 from kinder_garden2d.kinematic2d.predicates import is_on
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator, place_operator
 from kinder_gym.models.kinematic2d.crv import (
     ARM_LENGTH,
     GRIPPER_HEIGHT,
@@ -74,10 +75,11 @@ from kinder_gym.models.kinematic2d.crv import (
     CRVController,
     Waypoint,
     checked_waypoints,
+    hand_predicates,
     robot_config,
 )
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.operators import GroundOperator, LiftedOperator
+from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 #: Height (metres) of the base centre while moving across: a held block (≤ 0.2 m tall, under a
@@ -131,8 +133,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     def on_target(s: ObjectCentricState, b: Object) -> bool:
         return b not in _held(env, s.data) and is_on(s, b, surface, tol)
 
-    HandEmpty = Predicate("HandEmpty", (CRV_ROBOT,), lambda s, o: not _held(env, s.data))
-    Holding = Predicate("Holding", (CRV_ROBOT, RECTANGLE), lambda s, o: o[1] in _held(env, s.data))
+    HandEmpty, Holding = hand_predicates(env, RECTANGLE)
     OnTarget = Predicate("OnTarget", (RECTANGLE,), lambda s, o: on_target(s, o[0]))
     OnTable = Predicate(
         "OnTable",
@@ -158,37 +159,22 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(Clear.ground([o]))
         return frozenset(atoms)
 
-    r = Variable("?robot", CRV_ROBOT)
     b = Variable("?block", RECTANGLE)
     t = Variable("?target", TARGET_BLOCK)
     os_ = [Variable(f"?o{i}", RECTANGLE) for i in range(len(obstructions))]
-    pick_from_table = LiftedOperator(
-        "PickFromTable",
-        (r, b),
-        frozenset({HandEmpty.lift([r]), OnTable.lift([b])}),
-        frozenset({Holding.lift([r, b])}),
-        frozenset({HandEmpty.lift([r]), OnTable.lift([b])}),
+    pick_from_table = pick_operator("PickFromTable", HandEmpty, Holding, b, [OnTable.lift([b])])
+    pick_from_target = pick_operator("PickFromTarget", HandEmpty, Holding, b, [OnTarget.lift([b])])
+    place_on_table = place_operator(
+        "PlaceOnTable", HandEmpty, Holding, b, [OnTable.lift([b]), Clear.lift([b])]
     )
-    pick_from_target = LiftedOperator(
-        "PickFromTarget",
-        (r, b),
-        frozenset({HandEmpty.lift([r]), OnTarget.lift([b])}),
-        frozenset({Holding.lift([r, b])}),
-        frozenset({HandEmpty.lift([r]), OnTarget.lift([b])}),
-    )
-    place_on_table = LiftedOperator(
-        "PlaceOnTable",
-        (r, b),
-        frozenset({Holding.lift([r, b])}),
-        frozenset({HandEmpty.lift([r]), OnTable.lift([b]), Clear.lift([b])}),
-        frozenset({Holding.lift([r, b])}),
-    )
-    place_on_target = LiftedOperator(
+    place_on_target = place_operator(
         "PlaceOnTarget",
-        (r, t, *os_),
-        frozenset({Holding.lift([r, t]), *(Clear.lift([o]) for o in os_)}),
-        frozenset({HandEmpty.lift([r]), OnTarget.lift([t])}),
-        frozenset({Holding.lift([r, t])}),
+        HandEmpty,
+        Holding,
+        t,
+        [OnTarget.lift([t])],
+        also_need=[Clear.lift([o]) for o in os_],
+        params=os_,
     )
     ordered = tuple(obstructions)
 

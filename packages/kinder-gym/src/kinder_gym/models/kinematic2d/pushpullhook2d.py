@@ -62,12 +62,14 @@ from kinder_garden2d.kinematic2d.object_types import CIRCLE, CRV_ROBOT, LOBJECT
 from kinder_garden2d.kinematic2d.predicates import is_pressed
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator
 from kinder_gym.models.kinematic2d.crv import (
     ARM_JOINT,
     ARM_LENGTH,
     BASE_RADIUS,
     GRIPPER_WIDTH,
     CRVCollisionChecker,
+    hand_predicates,
     robot_config,
 )
 from kinder_gym.models.kinematic2d.crv_script import (
@@ -331,24 +333,14 @@ class PushButtonController(_HookController):
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The PushPullHook2D planning model."""
 
-    def held(state: ObjectCentricState) -> list[Object]:
-        return env.world.held_objects(state.data)  # type: ignore[attr-defined, no-any-return]
-
-    Holding = Predicate("Holding", (CRV_ROBOT, LOBJECT), lambda s, o: o[1] in held(s))
-    HandEmpty = Predicate("HandEmpty", (CRV_ROBOT,), lambda s, o: not held(s))
+    HandEmpty, Holding = hand_predicates(env, LOBJECT)
     Pressed = Predicate("Pressed", (CIRCLE,), lambda s, o: is_pressed(s, o[0]))
 
     r = Variable("?robot", CRV_ROBOT)
     h = Variable("?hook", LOBJECT)
     m = Variable("?movable", CIRCLE)
     t = Variable("?target", CIRCLE)
-    grasp = LiftedOperator(
-        "GraspHook",
-        (r, h),
-        frozenset({HandEmpty.lift([r])}),
-        frozenset({Holding.lift([r, h])}),
-        frozenset({HandEmpty.lift([r])}),
-    )
+    grasp = pick_operator("GraspHook", HandEmpty, Holding, h, [])
     push = LiftedOperator(
         "PushButton",
         (r, h, m, t),

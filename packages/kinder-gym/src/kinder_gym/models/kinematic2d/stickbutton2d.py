@@ -47,6 +47,7 @@ from kinder_garden2d.kinematic2d.object_types import CIRCLE, CRV_ROBOT, RECTANGL
 from kinder_garden2d.kinematic2d.predicates import is_pressed
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator, place_operator
 from kinder_gym.models.kinematic2d.crv import (
     ARM_JOINT,
     ARM_LENGTH,
@@ -55,10 +56,12 @@ from kinder_gym.models.kinematic2d.crv import (
     CRVCollisionChecker,
     CRVController,
     Waypoint,
+    checked_base_waypoints,
+    hand_predicates,
     plan_base_path,
     robot_config,
+    world_sampling_bounds,
 )
-from kinder_gym.models.kinematic2d.motion2d import checked_waypoints, world_sampling_bounds
 from kinder_gym.motion_planning import FloatArray, params_seed
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
@@ -79,8 +82,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     table_y = float(env.config.table_min_y)  # type: ignore[attr-defined]
 
     Pressed = Predicate("Pressed", (CIRCLE,), lambda s, o: is_pressed(s, o[0]))
-    Grasped = Predicate("Grasped", (CRV_ROBOT, RECTANGLE), lambda s, o: o[1] in _held(env, s))
-    HandEmpty = Predicate("HandEmpty", (CRV_ROBOT,), lambda s, o: not _held(env, s))
+    HandEmpty, Grasped = hand_predicates(env, RECTANGLE, "Grasped")
     OnFloor = Predicate("OnFloor", (CIRCLE,), lambda s, o: s.get(o[0], "y") < table_y)
     OnTable = Predicate("OnTable", (CIRCLE,), lambda s, o: s.get(o[0], "y") >= table_y)
 
@@ -93,26 +95,14 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         frozenset({HandEmpty.lift([r]), OnFloor.lift([b])}),
         frozenset({Pressed.lift([b])}),
     )
-    pick = LiftedOperator(
-        "PickStick",
-        (r, s),
-        frozenset({HandEmpty.lift([r])}),
-        frozenset({Grasped.lift([r, s])}),
-        frozenset({HandEmpty.lift([r])}),
-    )
+    pick = pick_operator("PickStick", HandEmpty, Grasped, s, [])
     stick_press = LiftedOperator(
         "StickPress",
         (r, s, b),
         frozenset({Grasped.lift([r, s]), OnTable.lift([b])}),
         frozenset({Pressed.lift([b])}),
     )
-    place = LiftedOperator(
-        "PlaceStick",
-        (r, s),
-        frozenset({Grasped.lift([r, s])}),
-        frozenset({HandEmpty.lift([r])}),
-        frozenset({Grasped.lift([r, s])}),
-    )
+    place = place_operator("PlaceStick", HandEmpty, Grasped, s, [])
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
         return frozenset(Pressed.ground([o]) for o in state.get_objects(CIRCLE))
@@ -205,7 +195,9 @@ class _RejectionSampled(CRVController):
         path = plan_base_path(
             checker, start, goal, ((x0, x1), (y0, y1)), seed=params_seed(self.params, salt)
         )
-        return waypoints + checked_waypoints(checker, path, float(goal[3]), self.context, vacuum)
+        return waypoints + checked_base_waypoints(
+            checker, path, float(goal[3]), self.context, vacuum
+        )
 
 
 class RobotPressController(_RejectionSampled):
