@@ -79,7 +79,6 @@ from kinder_gym.models.dynamic2d.kin_robot import (
     FINGER_HEIGHT,
     FINGER_WIDTH,
     GRIPPER_BASE_HEIGHT,
-    GRIPPER_BASE_WIDTH,
     KinRobotController,
     KinWaypoint,
     kin_config,
@@ -244,12 +243,12 @@ class GraspHookController(_HookController):
         robot, hook = self.objects
         v = state[robot]
         br, al = float(v[BASE_RADIUS]), float(v[ARM_LENGTH])
-        gw, fw = float(v[GRIPPER_BASE_WIDTH]), float(v[FINGER_WIDTH])
+        fw = float(v[FINGER_WIDTH])  # the fingers start at the gripper base's centre
         hx, hy, hth = (float(c) for c in state[hook][:3])
         w, s1 = state.get(hook, "width"), state.get(hook, "length_side1")
         c, s = math.cos(hth), math.sin(hth)
         end_x, end_y = hx - c * s1 + s * w / 2, hy - s * s1 - c * w / 2
-        return min(al, self._room_beyond(end_x, end_y, -c, -s, br) - 0.06 - gw / 2 - fw)
+        return min(al, self._room_beyond(end_x, end_y, -c, -s, br) - 0.06 - fw)
 
     def _shove_waypoints(self, state: ObjectCentricState) -> list[KinWaypoint]:
         """Push the hook along its bar, away from the wall beyond its free end, until an arm
@@ -260,7 +259,7 @@ class GraspHookController(_HookController):
         robot, hook = self.objects
         v = state[robot]
         br, al = float(v[BASE_RADIUS]), float(v[ARM_LENGTH])
-        gw, fw, fh = float(v[GRIPPER_BASE_WIDTH]), float(v[FINGER_WIDTH]), float(v[FINGER_HEIGHT])
+        fw, fh = float(v[FINGER_WIDTH]), float(v[FINGER_HEIGHT])
         cfg = self.context.config
         hx, hy, hth = (float(c) for c in state[hook][:3])
         w, s1 = state.get(hook, "width"), state.get(hook, "length_side1")
@@ -273,7 +272,7 @@ class GraspHookController(_HookController):
 
         # Moving the hook along its bar moves the free end along the approach axis.
         push = br + SHOVE_SPARE_ARM - self._longest_arm(state)
-        reach = al + gw / 2 + fw
+        reach = al + fw  # the fingers start at the gripper base's centre
         tip = np.array([-w - 0.005, SHOVE_CONTACT_Y])
         tilt = np.array([math.cos(SHOVE_TILT), math.sin(SHOVE_TILT)])
         contact = tip - reach * tilt  # the base when the fingertips touch the short arm
@@ -333,9 +332,12 @@ class GraspHookController(_HookController):
         robot, hook = self.objects
         v = state[robot]
         br = float(v[BASE_RADIUS])
-        gw, fw, fh = float(v[GRIPPER_BASE_WIDTH]), float(v[FINGER_WIDTH]), float(v[FINGER_HEIGHT])
+        fw, fh = float(v[FINGER_WIDTH]), float(v[FINGER_HEIGHT])
         open_gap = float(v[GRIPPER_BASE_HEIGHT])
-        overlap = 0.06 + 0.1 * float(self.params[0])
+        # The fingertips pass the bar's free end by this much: the end then lies 0.04-0.09 m
+        # from the gripper base's centre, on the fingers' first half (where a grasp needs a
+        # contact) and clear of the gripper base (0.03 m half-width).
+        overlap = 0.11 + 0.05 * float(self.params[0])
         hx, hy, hth = (float(c) for c in state[hook][:3])
         w, s1 = state.get(hook, "width"), state.get(hook, "length_side1")
         c, s = math.cos(hth), math.sin(hth)
@@ -349,7 +351,7 @@ class GraspHookController(_HookController):
         if longest < br:
             raise SkillFailure("GraspHook: no room for the robot beyond the bar's free end")
         arm = br + float(self.params[1]) * (longest - br)
-        reach = arm + gw / 2 + fw
+        reach = arm + fw  # the fingertips, from the base
         gx, gy = world(-s1 + overlap - reach, -w / 2)
         # Pre-grasp: the fingertips 0.06 m short of the bar's end, on its axis.
         px, py = world(-s1 - 0.06 - reach, -w / 2)
