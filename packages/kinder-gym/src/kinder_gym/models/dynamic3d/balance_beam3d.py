@@ -70,7 +70,6 @@ from kinder_garden3d.dynamic3d.taskfile import TaskSpec
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
-    CLOSED,
     CUBE_CLEARANCE,
     GRIP_STEPS,
     HOME,
@@ -83,6 +82,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     base_pose,
     gripper_quat,
     hand_predicates,
+    hand_state,
     ik_near,
     line_segments,
     pick_operator,
@@ -220,8 +220,7 @@ class PickController(Dynamic3DController):
         "towards the seesaw."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") < CLOSED
+    hand_must_be = "open"
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: BalanceContext = self.context
@@ -267,8 +266,7 @@ class PlaceController(Dynamic3DController):
     params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
     params_doc = "(u,): the block goes 0.14·(2u − 1) metres along the beam from its centre."
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") >= CLOSED
+    hand_must_be = "closed"
 
     def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
         """Uniform, redrawn (up to 100 times) while the spot is taken or would tip the beam
@@ -343,11 +341,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     balanced_key = f"balanced({SEESAW}, {tolerance:g})"
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms: set[GroundAtom] = set()
-        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
-        if not closed:
-            atoms.add(HandEmpty.ground([robot_obj]))
-        pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))
+        atoms, closed, pinch = hand_state(state, robot_obj, HandEmpty)
         on = env.goal_atoms(state)  # type: ignore[attr-defined]
         if on[balanced_key]:
             atoms.add(Balanced.ground([seesaw]))

@@ -84,7 +84,6 @@ from kinder_gym.concepts import GroundAtom
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
     CHASSIS_RADIUS,
-    CLOSED,
     GRIP_STEPS,
     MAX_DELTA,
     PITCH,
@@ -96,6 +95,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     base_pose,
     drive_reach_segment,
     gripper_quat,
+    hand_state,
     line_segments,
     nearest_ik,
     pick_place_domain,
@@ -195,8 +195,7 @@ class PickController(Dynamic3DController):
         "stops 0.50 + 0.10·dist metres short of the grasp point."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") < CLOSED
+    hand_must_be = "open"
 
     def _grip(self, state: ObjectCentricState, rod: Object) -> float:
         """Distance (m) of the grasp point from the rod's end."""
@@ -308,8 +307,7 @@ class PlaceController(Dynamic3DController):
     #: Height (m) of the rod's underside above the goal shelf while it slides in.
     slide_above = SLIDE_ABOVE_SHELF
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") >= CLOSED
+    hand_must_be = "closed"
 
     def _region(self, rod: Object, cupboard: Object) -> str | None:
         """The goal region ``rod`` is placed into in ``cupboard`` (None: it has none)."""
@@ -402,11 +400,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     HandEmpty, Holding, OnGround, OnShelf = predicates
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms: set[GroundAtom] = set()
-        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
-        if not closed:
-            atoms.add(HandEmpty.ground([robot_obj]))
-        pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))
+        atoms, closed, pinch = hand_state(state, robot_obj, HandEmpty)
         centres = np.array([np.asarray(state[r][:3]) for r in rods])
         inside = {
             cup: env.regions.contains(state, region, centres)  # type: ignore[attr-defined]

@@ -81,8 +81,7 @@ class MoveToGoalController(Dynamic3DController):
         "line to the target, shifted 0.8·(2w − 1) metres to its left."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") < CLOSED
+    hand_must_be = "open"
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         env = self.context

@@ -60,7 +60,6 @@ from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
-    CLOSED,
     DOWN,
     GRIP_STEPS,
     LOADED_TOL,
@@ -71,6 +70,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     base_pose,
     grasp_yaws,
     hand_predicates,
+    hand_state,
     line_segments,
     pick_operator,
     pinch_position,
@@ -156,8 +156,7 @@ class PickController(TopDownController):
     params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
     params_doc = "(depth,): the fingers close 2.5 + 1.5·depth cm below the object's top."
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") < CLOSED
+    hand_must_be = "open"
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         robot, obj = self.objects
@@ -196,8 +195,7 @@ class PlaceController(TopDownController):
         "fractions (u, v) of that box's x and y extents (world-aligned, metres)."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") >= CLOSED
+    hand_must_be = "closed"
 
     def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
         """Uniform, redrawn (up to 100 times) while the spot is not free."""
@@ -264,11 +262,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     Placed = Predicate("Placed", (MOVABLE_TYPE,))
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms: set[GroundAtom] = set()
-        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
-        if not closed:
-            atoms.add(HandEmpty.ground([robot_obj]))
-        pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))
+        atoms, closed, pinch = hand_state(state, robot_obj, HandEmpty)
         on = env.goal_atoms(state)  # type: ignore[attr-defined]
         for o in goal_objs:
             pos = np.asarray(state[o][:3])

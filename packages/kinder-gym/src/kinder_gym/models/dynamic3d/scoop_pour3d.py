@@ -225,8 +225,7 @@ class GraspScoopController(Dynamic3DController):
         "along x and 0.1·(2·side − 1) metres beside it along y."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") < CLOSED
+    hand_must_be = "open"
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         robot, scoop = self.objects
@@ -347,8 +346,7 @@ class PickCubeController(Dynamic3DController):
     params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
     params_doc = "(dy,): the base stops 0.1·(2·dy − 1) metres beside the cube along y."
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") < CLOSED
+    hand_must_be = "open"
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         robot, cube = self.objects
@@ -397,8 +395,7 @@ class PlaceCubeController(Dynamic3DController):
         "along its x and y axes, with the pinch point 0.6 m high."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") >= CLOSED
+    hand_must_be = "closed"
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: ScoopContext = self.context

@@ -82,7 +82,6 @@ from kinder_gym.concepts import GroundAtom
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
     CHASSIS_RADIUS,
-    CLOSED,
     CUBE_CLEARANCE,
     GRASP_Z,
     GRIP_STEPS,
@@ -96,6 +95,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     base_pose,
     drive_reach_segment,
     gripper_quat,
+    hand_state,
     line_segments,
     nearest_ik,
     pick_place_domain,
@@ -240,8 +240,7 @@ class PickController(Dynamic3DController):
         "faces the cupboard's opening."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") < CLOSED
+    hand_must_be = "open"
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: ShelfContext = self.context
@@ -310,8 +309,7 @@ class PlaceController(Dynamic3DController):
     #: shelf) rather than the pinch point's: where a cube sits in the pads varies by 1–2 cm.
     track_cube = False
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") >= CLOSED
+    hand_must_be = "closed"
 
     def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
         """``v`` uniform; ``u`` one of :data:`SLOTS` evenly spaced spots along the shelf, drawn
@@ -407,11 +405,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     HandEmpty, Holding, OnGround, OnShelf = predicates
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms: set[GroundAtom] = set()
-        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
-        if not closed:
-            atoms.add(HandEmpty.ground([robot_obj]))
-        pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))
+        atoms, closed, pinch = hand_state(state, robot_obj, HandEmpty)
         on = env.goal_atoms(state)  # type: ignore[attr-defined]
         for c in cubes:
             pos = np.asarray(state[c][:3])

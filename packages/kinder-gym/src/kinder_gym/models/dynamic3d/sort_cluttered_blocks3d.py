@@ -74,7 +74,6 @@ from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d import sort_cupboard3d
 from kinder_gym.models.dynamic3d.tidybot import (
-    CLOSED,
     DOWN,
     GRIP_STEPS,
     HOME,
@@ -88,6 +87,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     drive_segment,
     grasp_yaws,
     hand_predicates,
+    hand_state,
     line_segments,
     pick_operator,
     pinch_position,
@@ -201,8 +201,7 @@ class PickController(_SortController):
         "base's heading when rank < 0.5, else the second closest."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") < CLOSED
+    hand_must_be = "open"
 
     def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
         """Uniform over the headings whose pads land clear of the other cubes (both when
@@ -276,8 +275,7 @@ class DropController(_SortController):
         "(shrunk by 1 cm on every side)."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") >= CLOSED
+    hand_must_be = "closed"
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: SortContext = self.context
@@ -346,11 +344,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     Sorted = Predicate("Sorted", (MOVABLE_TYPE,))
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms: set[GroundAtom] = set()
-        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
-        if not closed:
-            atoms.add(HandEmpty.ground([robot_obj]))
-        pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))
+        atoms, closed, pinch = hand_state(state, robot_obj, HandEmpty)
         on = env.goal_atoms(state)  # type: ignore[attr-defined]
         for c in cubes:
             pos = np.asarray(state[c][:3])

@@ -89,12 +89,9 @@ from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d import constrained_cupboard3d as cupboard3d
 from kinder_gym.models.dynamic3d import shelf3d
 from kinder_gym.models.dynamic3d.tidybot import (
-    CLOSED,
     SegmentSource,
-    arm_joints,
-    base_pose,
     hand_predicates,
-    pinch_position,
+    hand_state,
 )
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill
@@ -195,11 +192,8 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     static = frozenset({IsCube.ground([c]) for c in cubes} | {IsRod.ground([r]) for r in rods})
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms: set[GroundAtom] = set(static)
-        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
-        if not closed:
-            atoms.add(HandEmpty.ground([robot_obj]))
-        pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))
+        atoms, closed, pinch = hand_state(state, robot_obj, HandEmpty)
+        atoms |= static
         on = env.goal_atoms(state)  # type: ignore[attr-defined]
         if not any(on[f"on({rod.name}, {regions[rod.name]})"] for rod in rods):
             atoms.add(TopShelfEmpty.ground([cupboard]))

@@ -92,7 +92,6 @@ from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
-    CLOSED,
     GRIP_STEPS,
     HOME,
     MAX_DELTA,
@@ -105,6 +104,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     base_pose,
     gripper_quat,
     hand_predicates,
+    hand_state,
     ik_near,
     line_segments,
     pick_operator,
@@ -371,8 +371,7 @@ class PickController(_Controller):
         "path is blocked it drives along x to x = 1.0 + 0.9·via, then along y, then to the goal."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") < CLOSED
+    hand_must_be = "open"
 
     def geometry(
         self, state: ObjectCentricState, params: FloatArray
@@ -433,8 +432,7 @@ class PlaceController(_Controller):
         "for Pick."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") >= CLOSED
+    hand_must_be = "closed"
 
     def geometry(
         self, state: ObjectCentricState, params: FloatArray
@@ -493,11 +491,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     InArea = Predicate("InArea", (MOVABLE_TYPE,))
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms: set[GroundAtom] = set()
-        closed = state.get(robot, "pos_gripper") >= CLOSED
-        if not closed:
-            atoms.add(HandEmpty.ground([robot]))
-        pinch = pinch_position(base_pose(state, robot), arm_joints(state, robot))
+        atoms, closed, pinch = hand_state(state, robot, HandEmpty)
         on = env.goal_atoms(state)  # type: ignore[attr-defined]
         held: Object | None = None
         if closed:  # the lifted block nearest the pinch point, within 4 cm

@@ -27,7 +27,7 @@ import abc
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import TypeAlias
+from typing import Literal, TypeAlias
 
 import numpy as np
 
@@ -41,7 +41,8 @@ from kinder_garden3d.robot.description import (
     robot_description,
 )
 from kinder_garden3d.robot.ik import InverseKinematics
-from kinder_gym.concepts import Predicate, Variable
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.models import hand
 from kinder_gym.motion_planning import FloatArray, wrap_angle
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Controller, SkillFailure
@@ -144,32 +145,27 @@ def hand_predicates(held: Type = MOVABLE_TYPE) -> tuple[Predicate, Predicate]:
     return Predicate("HandEmpty", (ROBOT_TYPE,)), Predicate("Holding", (ROBOT_TYPE, held))
 
 
+def hand_state(
+    state: ObjectCentricState, robot: Object, hand_empty: Predicate
+) -> tuple[set[GroundAtom], bool, FloatArray]:
+    """What every Dynamic3D abstraction starts from: ``{HandEmpty(robot)}`` when the gripper is
+    open (else no atom), whether it is closed, and the pinch point (to tell which object it
+    holds)."""
+    closed = state.get(robot, "pos_gripper") >= CLOSED
+    atoms = set() if closed else {hand_empty.ground([robot])}
+    return atoms, closed, pinch_position(base_pose(state, robot), arm_joints(state, robot))
+
+
 def pick_operator(item: Variable, source: Predicate) -> LiftedOperator:
     """``Pick(?robot, item)``: with the hand empty and ``source(item)``, hold ``item``
     (``HandEmpty`` and ``source(item)`` deleted)."""
-    hand_empty, holding = hand_predicates()
-    r = Variable("?robot", ROBOT_TYPE)
-    return LiftedOperator(
-        "Pick",
-        (r, item),
-        frozenset({hand_empty.lift([r]), source.lift([item])}),
-        frozenset({holding.lift([r, item])}),
-        frozenset({hand_empty.lift([r]), source.lift([item])}),
-    )
+    return hand.pick_operator("Pick", *hand_predicates(), item, [source.lift([item])])
 
 
 def place_operator(item: Variable, target: Predicate, name: str = "Place") -> LiftedOperator:
     """``name(?robot, item)``: holding ``item``, let go of it so that ``target(item)`` holds
     (``HandEmpty`` and ``target(item)`` added, ``Holding`` deleted)."""
-    hand_empty, holding = hand_predicates()
-    r = Variable("?robot", ROBOT_TYPE)
-    return LiftedOperator(
-        name,
-        (r, item),
-        frozenset({holding.lift([r, item])}),
-        frozenset({hand_empty.lift([r]), target.lift([item])}),
-        frozenset({holding.lift([r, item])}),
-    )
+    return hand.place_operator(name, *hand_predicates(), item, [target.lift([item])])
 
 
 def pick_place_domain(
@@ -181,16 +177,11 @@ def pick_place_domain(
     hand_empty, holding = hand_predicates()
     on_ground = Predicate("OnGround", (MOVABLE_TYPE,))
     on_shelf = Predicate("OnShelf", (MOVABLE_TYPE, FIXTURE_TYPE))
-    r = Variable("?robot", ROBOT_TYPE)
     c = Variable(item, MOVABLE_TYPE)
     f = Variable("?cupboard", FIXTURE_TYPE)
     pick = pick_operator(c, on_ground)
-    place = LiftedOperator(
-        "Place",
-        (r, c, f),
-        frozenset({holding.lift([r, c])}),
-        frozenset({hand_empty.lift([r]), on_shelf.lift([c, f])}),
-        frozenset({holding.lift([r, c])}),
+    place = hand.place_operator(
+        "Place", hand_empty, holding, c, [on_shelf.lift([c, f])], params=[f]
     )
     return (hand_empty, holding, on_ground, on_shelf), pick, place
 
@@ -378,7 +369,18 @@ class Dynamic3DController(Controller):
     """Segment following for the Dynamic3D robot (see the module docstring).
 
     The context is the env. Subclasses implement :meth:`plan`; the first object is the robot.
+    A pick sets :attr:`hand_must_be` to ``"open"``, a place to ``"closed"``: the skill is
+    initiable only with the gripper so.
     """
+
+    #: How the gripper must be for the skill to start (``None``: either way).
+    hand_must_be: Literal["open", "closed"] | None = None
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        closed = bool(state.get(self.robot, "pos_gripper") >= CLOSED)
+        if self.hand_must_be is None:
+            return True
+        return closed == (self.hand_must_be == "closed")
 
     def reset(self, state: ObjectCentricState, params: Sequence[float] | FloatArray) -> None:
         super().reset(state, params)

@@ -90,7 +90,6 @@ from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
     CHASSIS_RADIUS,
-    CLOSED,
     GRASP_Z,
     GRIP_STEPS,
     HOME,
@@ -103,6 +102,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     base_pose,
     gripper_quat,
     hand_predicates,
+    hand_state,
     ik_near,
     line_segments,
     pick_operator,
@@ -202,8 +202,7 @@ class ToppleController(_TossController):
         "within 0.31 m of a cube on the floor are refused)."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") < CLOSED
+    hand_must_be = "open"
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: TossContext = self.context
@@ -232,8 +231,7 @@ class PickController(_TossController):
         "along the cube face nearest to the world heading (2·heading − 1)·π radians."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") < CLOSED
+    hand_must_be = "open"
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: TossContext = self.context
@@ -285,8 +283,7 @@ class DropController(_TossController):
         "0.08·(u − 0.5), 0.08·(v − 0.5) metres (world x, y) from the bin's centre."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.robot, "pos_gripper") >= CLOSED
+    hand_must_be = "closed"
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: TossContext = self.context
@@ -343,16 +340,12 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     Toppled = Predicate("Toppled", (MOVABLE_TYPE,))
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms: set[GroundAtom] = set()
-        closed = state.get(robot_obj, "pos_gripper") >= CLOSED
-        if not closed:
-            atoms.add(HandEmpty.ground([robot_obj]))
+        atoms, closed, pinch = hand_state(state, robot_obj, HandEmpty)
         cos = barrier_cos(state, barrier)
         if cos >= UPRIGHT_COS:
             atoms.add(Upright.ground([barrier]))
         elif cos <= TOPPLED_COS:
             atoms.add(Toppled.ground([barrier]))
-        pinch = pinch_position(base_pose(state, robot_obj), arm_joints(state, robot_obj))
         on = env.goal_atoms(state)  # type: ignore[attr-defined]
         for c in cubes:
             pos = np.asarray(state[c][:3])
