@@ -65,8 +65,7 @@ class PlaceController(ReachController):
         "+y side."
     )
 
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.objects[1], "grasp_active") > 0.5
+    hand_must_be = "holding"
 
     def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
         robot, obj, table = self.objects
