@@ -183,7 +183,8 @@ class PickController(TableTopController):
     params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
     params_doc = "(yaw,): which of the top-down grasp yaws (22.5° apart) is tried first."
 
-    hand_must_be = "empty"
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "grasp_active") < 0.5
 
     def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
         env = self.context
@@ -210,7 +211,8 @@ class PlaceOnTableController(TableTopController):
         "kept relative to the grasp) is tried first."
     )
 
-    hand_must_be = "holding"
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.objects[1], "grasp_active") > 0.5
 
     def _spot(self, state: ObjectCentricState, u: float, v: float) -> FloatArray:
         env = self.context
@@ -269,7 +271,8 @@ class PlaceOnRegionController(TableTopController):
     params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
     params_doc = "(yaw,): which of the two block yaws aligned with the region is tried first."
 
-    hand_must_be = "holding"
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.objects[1], "grasp_active") > 0.5
 
     def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
         _, block, region = self.objects

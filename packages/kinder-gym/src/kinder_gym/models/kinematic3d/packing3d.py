@@ -98,7 +98,8 @@ class PickPartController(TableTopController):
     params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
     params_doc = "(yaw,): which of the four peg grasp yaws (90° apart) is tried first."
 
-    hand_must_be = "empty"
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "grasp_active") < 0.5
 
     def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
         part = self.objects[1]
@@ -121,7 +122,8 @@ class PlaceInRackController(TableTopController):
         "turned by yaw·2π about z, 3 mm above the rack floor."
     )
 
-    hand_must_be = "holding"
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.objects[1], "grasp_active") > 0.5
 
     def _inner(self, state: ObjectCentricState) -> tuple[float, float, float, float, float]:
         """The rack's centre (x, y), inner half extents (x, y) and floor top."""

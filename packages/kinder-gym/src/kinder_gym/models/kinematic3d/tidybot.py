@@ -24,7 +24,6 @@ import abc
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 from gymnasium import spaces
@@ -330,21 +329,7 @@ def yaw_of(q: FloatArray) -> float:
 
 
 class ReachController(TidyBotController):
-    """Shared motion pieces: retract, drive, reach down, act, lift.
-
-    A pick sets :attr:`hand_must_be` to ``"empty"`` (initiable when the robot's grasp is off), a
-    place to ``"holding"`` (initiable when the object, the second of ``objects``, is held).
-    """
-
-    #: What the hand must be doing for the skill to start (``None``: anything).
-    hand_must_be: Literal["empty", "holding"] | None = None
-
-    def initiable(self, state: ObjectCentricState) -> bool:
-        if self.hand_must_be == "empty":
-            return bool(state.get(self.robot, "grasp_active") < 0.5)
-        if self.hand_must_be == "holding":
-            return bool(state.get(self.objects[1], "grasp_active") > 0.5)
-        return True
+    """Shared motion pieces: retract, drive, reach down, act, lift."""
 
     def _wp(self, q: FloatArray, gripper: float = 0.0) -> ConfigWaypoint:
         return ConfigWaypoint(tuple(float(v) for v in q), gripper)
@@ -423,7 +408,8 @@ class PickController(ReachController):
         "from (angle − 0.5)·π radians off the line from the robot to the object."
     )
 
-    hand_must_be = "empty"
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "grasp_active") < 0.5
 
     def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
         robot, obj = self.objects

@@ -65,7 +65,8 @@ class PlaceController(ReachController):
         "+y side."
     )
 
-    hand_must_be = "holding"
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.objects[1], "grasp_active") > 0.5
 
     def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
         robot, obj, table = self.objects
