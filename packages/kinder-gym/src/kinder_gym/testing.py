@@ -1,4 +1,6 @@
-"""A tiny 1-D pick-and-place env and its planning model, for testing planners.
+"""A tiny 1-D pick-and-place env and its planning model, for testing planners, and
+:func:`check_planning_model`, the check every planning model's tests run: each skill of a plan
+reaches its operator's predicted abstract state.
 
 A robot on a line carries blocks into a region. The region only fits one block, and an
 obstruction starts inside it, so the shortest abstract plan (pick and place the target) cannot be
