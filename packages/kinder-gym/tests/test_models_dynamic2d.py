@@ -170,13 +170,13 @@ def test_grasp_hook_shoves_the_hook_when_there_is_no_room_beyond_the_free_end() 
     assert free_end_x(state) < 0.35 and free_end_x(end) > 0.8
 
 
-@pytest.mark.parametrize(("seed", "operator"), [(5, "SweepTarget"), (6, "PreHook")])
+@pytest.mark.parametrize(("seed", "operator"), [(1028, "SweepTarget"), (6, "PreHook")])
 def test_dynpushpullhook2d_the_target_reaches_the_wall_swept_or_raked(
     seed: int, operator: str
 ) -> None:
-    """Seed 5: the hook's free end lies by the left wall (GraspHook shoves it first) and the
-    target too near that wall for the rake, which comes from its left (PreHook fails), but
-    sweeping the upright bar leftwards brings it down. Seed 6: the rake."""
+    """Seed 1028: the target lies too near the left wall for the rake, which comes from its
+    left (PreHook fails), but sweeping the upright bar leftwards brings it down. Seed 6: the
+    rake."""
     from kinder_gym.skills import SkillFailure
 
     env = make_object_centric("kinder/DynPushPullHook2D-o0-v0")
