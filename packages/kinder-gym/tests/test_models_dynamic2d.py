@@ -126,10 +126,10 @@ def test_grasp_hook_finds_a_route_and_an_arm_that_fit() -> None:
     from kinder_gym.models.dynamic2d.kin_robot import ARM_LENGTH, BASE_RADIUS, kin_config
 
     env = make_object_centric("kinder/DynPushPullHook2D-o5-v0")
-    # Seed 12: the route through the fixed turning spot (0.55, 0.55) would touch something, so
-    # the skill turns elsewhere; seed 24: the bar's free end is near
-    # the left wall, so only a shorter arm leaves the base room on the bar's axis.
-    for seed in (12, 24):
+    # Seed 1001: the route does not start at the fixed turning spot (0.55, 0.55) as the robot
+    # faces; seed 24: the bar's free end is near the left wall, so only a shorter arm leaves the
+    # base room on the bar's axis (both instances upstream-drawn).
+    for seed in (1001, 24):
         state = env.reset(seed=seed)[0]
         model, op, controller = _grasp_hook_controller(env, state, [0.5, 0.5])
         robot = env.robot
@@ -138,7 +138,7 @@ def test_grasp_hook_finds_a_route_and_an_arm_that_fit() -> None:
         br, al = state[robot][BASE_RADIUS], state[robot][ARM_LENGTH]
         assert wps[2].arm < br + 0.5 * (al - br)  # shorter than the old mapping's
         assert min(wp.x for wp in wps) - br > env.config.world_min_x
-        if seed == 12:
+        if seed == 1001:
             assert (wps[0].x, wps[0].y) != (max(q[0], 0.55), max(q[1], 0.55)) or (
                 wps[0].theta != q[2]
             )
