@@ -8,6 +8,7 @@ single env's bit for bit. :func:`batched_world` picks the family's :class:`Batch
 from __future__ import annotations
 
 import abc
+from collections.abc import Callable
 
 import numpy as np
 
@@ -162,10 +163,21 @@ def press_touched(
     suction = (x + (aj + 1.5 * gw) * c, y + (aj + 1.5 * gw) * s, c, s, 0.5 * gw, 0.5 * gh)
     b = data[:, circle_idx]  # (N, K, 3)
     bx, by, r = b[..., 0], b[..., 1], b[..., 2]
-    near = (py_hypot(bx - x, by - y) <= np.maximum(br, py_hypot(reach, 0.5 * gh)) + r) | (
-        py_hypot(bx - scx, by - scy) <= 0.5 * py_hypot(pw, ph) + r
+    (near, near_unsure), (touch, touch_unsure) = _distance_tests(
+        np.hypot, bx, by, r, x, y, br, reach, gh, scx, scy, pw, ph
     )
-    touch = py_hypot(bx - x, by - y) <= br + r
+    # C's hypot (np.hypot) and Python's math.hypot differ by at most a couple of ulps, so only
+    # a comparison within far less than 1e-9 of its threshold can differ: redo those with
+    # math.hypot's exact algorithm.
+    unsure = np.flatnonzero(np.ravel(near_unsure | touch_unsure))
+    if unsure.size:
+        n, k = np.unravel_index(unsure, bx.shape)
+        (exact_near, _), (exact_touch, _) = _distance_tests(
+            py_hypot,
+            *(v[n, k] for v in (bx, by, r)),
+            *(v[n, 0] for v in (x, y, br, reach, gh, scx, scy, pw, ph)),
+        )
+        near[n, k], touch[n, k] = exact_near, exact_touch
     for box in boxes:
         touch |= _circle_touches_box(bx, by, r, box)
     touch |= on & _circle_touches_box(bx, by, r, suction)
@@ -173,6 +185,37 @@ def press_touched(
     if pressed.any():
         rows, k = np.nonzero(pressed)
         data[rows[:, None], color_idx[k]] = BUTTON_GREEN
+
+
+_SLACK = 1e-9
+
+
+def _distance_tests(
+    hypot: Callable[[FloatArray, FloatArray], FloatArray],
+    bx: FloatArray,
+    by: FloatArray,
+    r: FloatArray,
+    x: FloatArray,
+    y: FloatArray,
+    br: FloatArray,
+    reach: FloatArray,
+    gh: FloatArray,
+    scx: FloatArray,
+    scy: FloatArray,
+    pw: FloatArray,
+    ph: FloatArray,
+) -> tuple[tuple[BoolArray, BoolArray], tuple[BoolArray, BoolArray]]:
+    """``press_touched_buttons``'s distance tests with a given ``hypot``: is each button within
+    the robot's or the stick's bounding circle, and does it touch the robot's base? Each comes
+    with where its comparison lies within ``_SLACK`` of its threshold."""
+    d_robot = hypot(bx - x, by - y)
+    d_stick = hypot(bx - scx, by - scy)
+    t_robot = np.maximum(br, hypot(reach, 0.5 * gh)) + r
+    t_stick = 0.5 * hypot(pw, ph) + r
+    t_base = br + r
+    near = (d_robot <= t_robot) | (d_stick <= t_stick)
+    near_unsure = (np.abs(d_robot - t_robot) <= _SLACK) | (np.abs(d_stick - t_stick) <= _SLACK)
+    return (near, near_unsure), (d_robot <= t_base, np.abs(d_robot - t_base) <= _SLACK)
 
 
 def _circle_touches_box(
