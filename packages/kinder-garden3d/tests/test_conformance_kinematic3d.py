@@ -82,6 +82,9 @@ def _fixtures() -> list[Path]:
 
 
 FIXTURES = _fixtures()
+#: The fixtures compared seed for seed, and those compared by distribution.
+SEED_FIXTURES = [p for p in FIXTURES if f"kinder/{p.stem}-v0" in SEED_FOR_SEED]
+DISTRIBUTION_FIXTURES = [p for p in FIXTURES if f"kinder/{p.stem}-v0" not in SEED_FOR_SEED]
 
 
 @pytest.fixture(scope="module", params=FIXTURES, ids=[p.stem for p in FIXTURES])
@@ -148,11 +151,11 @@ def test_transitions_match_upstream(fixture: Fixture) -> None:
     assert not found, f"{fixture.env_id}: (ours, expected) first divergences: {found}"
 
 
-def test_every_recorded_seed_matches_upstream(fixture: Fixture) -> None:
+@pytest.mark.parametrize("path", SEED_FIXTURES, ids=[p.stem for p in SEED_FIXTURES])
+def test_every_recorded_seed_matches_upstream(path: Path) -> None:
     """For the seed-for-seed ids, every one of upstream's recorded seeds (its constants exactly,
     its sampled features to the fixture's 8 significant digits), not only the full vectors."""
-    if fixture.env_id not in SEED_FOR_SEED:
-        pytest.skip(f"{fixture.env_id}: compared by distribution")
+    fixture = load_fixture(path)
     env = kinder_core.make(fixture.env_id)
     resets = fixture.resets
     ours = sample_resets(env, range(resets.num_seeds))
@@ -166,11 +169,11 @@ def test_every_recorded_seed_matches_upstream(fixture: Fixture) -> None:
     assert not bad, f"{fixture.env_id}: features differing from upstream's seeds: {bad}"
 
 
-def test_reset_distribution_matches_upstream(fixture: Fixture) -> None:
+@pytest.mark.parametrize("path", DISTRIBUTION_FIXTURES, ids=[p.stem for p in DISTRIBUTION_FIXTURES])
+def test_reset_distribution_matches_upstream(path: Path) -> None:
     """Ids whose sampling is not upstream's draw for draw: our resets on seeds 1000.. against
     upstream's recorded seeds, feature by feature."""
-    if fixture.env_id in SEED_FOR_SEED:
-        pytest.skip(f"{fixture.env_id}: every seed is compared exactly")
+    fixture = load_fixture(path)
     env = kinder_core.make(fixture.env_id)
     report = check_resets(env, fixture, num_seeds=100)
     if fixture.env_id in NOT_CONFORMING_RESETS:
@@ -180,8 +183,8 @@ def test_reset_distribution_matches_upstream(fixture: Fixture) -> None:
     assert report.ok, [(f.name, f.detail) for f in report.failures]
 
 
-def test_seeded_resets_match_upstream(fixture: Fixture) -> None:
-    if fixture.env_id not in SEED_FOR_SEED:
-        pytest.skip(f"{fixture.env_id}: distribution match only")
+@pytest.mark.parametrize("path", SEED_FIXTURES, ids=[p.stem for p in SEED_FIXTURES])
+def test_seeded_resets_match_upstream(path: Path) -> None:
+    fixture = load_fixture(path)
     report = check_seeded_resets(kinder_core.make(fixture.env_id), fixture, atol=ATOL)
     assert report.ok, report

@@ -32,10 +32,10 @@ from typing import Literal, TypeAlias
 import numpy as np
 
 from kinder_core import Object, ObjectCentricState, Type
+from kinder_garden3d.dynamic3d.env import HOME_ARM
 from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.dynamic3d.object_types import FIXTURE_TYPE, MOVABLE_TYPE, ROBOT_TYPE
 from kinder_garden3d.robot.description import (
-    RETRACT,
     forward_kinematics,
     matrix_to_quat_xyzw,
     robot_description,
@@ -47,8 +47,8 @@ from kinder_gym.motion_planning import FloatArray, wrap_angle
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Controller, SkillFailure
 
-#: The retracted arm (the env's start pose), carried while the base drives.
-HOME = np.array(RETRACT, dtype=np.float64)
+#: The retracted arm (the env's start pose, upstream's retract pose), carried while the base drives.
+HOME = np.array(HOME_ARM, dtype=np.float64)
 BASE_FEATURES = ("pos_base_x", "pos_base_y", "pos_base_rot")
 ARM_FEATURES = tuple(f"pos_arm_joint{i}" for i in range(1, 8))
 #: Bound of every delta in the action (m, rad).
