@@ -44,6 +44,13 @@ TOLERANCES: dict[str, float] = {"Kinematic2D": 1e-9, "Kinematic3D": 1e-9}
 CATEGORY_DEVIATIONS: dict[str, str] = {
     "Kinematic2D": "Outer walls 1.0 thick instead of 2 × the step (not observed; a held object "
     "swung on the arm cannot leave the world); numpy rendering.",
+    "Dynamic2D": "Checked by packages/kinder-garden2d/tests/test_conformance_dynamic2d.py: a "
+    "step from upstream's state equals upstream's own reload-then-step at 1e-9 (upstream's "
+    "uninterrupted runs differ from its reloads by up to 3e-2 within 30 random steps, and by "
+    "far more once a reload changes a grasp or a topple, so no tolerance against them is sound: "
+    "tools/conformance/dynamic2d_reload.py records both). Kept: the PushT goal compares the "
+    "wrapped angle difference (upstream compares raw angles); a held scoop is attached with the "
+    "robot already in place.",
     "Dynamic3D": "Checked by packages/kinder-garden3d/tests/test_conformance_dynamic3d.py "
     "(values rounded to 1 mm / 0.01 first; one-step transitions from upstream's states with "
     "per-group tolerances). Kept: the arm's PD runs every physics step (upstream holds one "
