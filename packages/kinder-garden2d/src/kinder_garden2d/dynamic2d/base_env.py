@@ -303,9 +303,9 @@ class Dynamic2DEnv(ObjectCentricEnv):
             kv_rot=cfg.kv_rot,
         )
 
+    @abc.abstractmethod
     def _pd_specs(self, state: ObjectCentricState) -> list[BodySpec]:
         """How each object of ``state`` (and each constant object) enters upstream's space."""
-        raise NotImplementedError(f"{type(self).__name__} has no PD transitions")
 
     def _pd_space(self, state: ObjectCentricState) -> PDSpace:
         return PDSpace(self._pd_settings(), self.robot, state[self.robot], self._pd_specs(state))
