@@ -11,7 +11,8 @@ from typing import Any
 import pytest
 
 from kinder_bench.metrics import Stat, aggregate, seed_metrics, summarize
-from kinder_bench.report import csv_table, markdown_table, write_report
+from kinder_bench.report import markdown_table, write_report
+from kinder_bench.summary import csv_table
 
 
 def _rec(

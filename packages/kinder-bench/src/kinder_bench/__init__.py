@@ -10,7 +10,7 @@ Where things are, top to bottom of the import layers (``[tool.importlinter]`` in
   demonstrations (``demo_collection.py``, ``dataset_specs.py``, ``dataset_cards.py``) and
   ``policy_server/``, none of which imports another;
 * evaluation: ``runner.py``, ``executors.py``, ``recording.py``, ``protocol.py``,
-  ``metrics.py``, ``results.py``, ``envs.py``;
+  ``metrics.py``, ``results.py``, ``summary.py``, ``envs.py``;
 * ``agents/`` (the interface the runner drives and the registry) and ``training/`` (the
   trainers' checkpoints and CSV logs).
 
@@ -32,7 +32,7 @@ from kinder_bench.agents import (
 from kinder_bench.baselines.mpc import MPCAgent, MPCArgs
 from kinder_bench.baselines.random_agent import RandomAgent
 from kinder_bench.metrics import Stat, Summary, aggregate, summarize
-from kinder_bench.report import csv_table, markdown_table, write_report
+from kinder_bench.report import markdown_table, write_report
 from kinder_bench.results import load_records
 from kinder_bench.runner import (
     BenchOutcome,
@@ -42,6 +42,7 @@ from kinder_bench.runner import (
     run_benchmark,
     run_episode,
 )
+from kinder_bench.summary import csv_table
 
 __version__ = "0.1.0"
 

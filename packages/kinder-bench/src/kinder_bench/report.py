@@ -2,34 +2,19 @@
 
 from __future__ import annotations
 
-import csv
-import io
-import json
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from kinder_bench.envs import short_id
 from kinder_bench.metrics import Stat, Summary, aggregate
 from kinder_bench.results import load_config, load_records, write_text
+from kinder_bench.summary import CSV_FILE, csv_table, dedupe, run_commands, run_trainings
 
 TABLE_FILE = "table.md"
-CSV_FILE = "summary.csv"
 PLOT_FILE = "success.png"
 PAPER_TABLE_FILE = "paper_table.md"
 PAPER_CSV_FILE = "paper_comparison.csv"
-
-
-def dedupe(records: Iterable[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
-    """Keep the first record of each (run, seed, episode)."""
-    seen: set[tuple[str, int, int]] = set()
-    out = []
-    for r in records:
-        key = (r["run_id"], r["seed"], r["episode"])
-        if key not in seen:
-            seen.add(key)
-            out.append(r)
-    return out
 
 
 def load_run_dirs(run_dirs: Sequence[Path | str]) -> list[Mapping[str, Any]]:
@@ -85,108 +70,6 @@ def markdown_table(summaries: Sequence[Summary]) -> str:
             label = short_id(env) if i == 0 else ""
             lines.append(f"| {label} | {name} | " + " | ".join(row) + " |")
     return "\n".join(lines) + "\n"
-
-
-CSV_COLUMNS = (
-    "env_id",
-    "method",
-    "agent",
-    "run_id",
-    "max_steps",
-    "num_seeds",
-    "episodes",
-    "errors",
-    "sr_mean",
-    "sr_std",
-    "rwd_mean",
-    "rwd_std",
-    "rwd_seeds",
-    "inf_time_mean",
-    "inf_time_std",
-    "steps_mean",
-    "steps_std",
-    "env_time_mean",
-    "env_time_std",
-    "command",
-    "seeds",
-    "agent_args",
-    "training",
-    "provenance",
-)
-"""A summary row: the aggregate, the command that ran it, and the settings that decide whether
-it is at the paper's protocol (:func:`kinder_bench.paper.protocol_deviations`): ``seeds``
-(space-separated), ``agent_args`` (JSON), ``training`` (a learned agent's training budget, written
-by the tool that trained it) and ``provenance`` (empty for rows the runner wrote; where a
-transcribed row comes from otherwise)."""
-
-
-def run_commands(run_dirs: Sequence[Path | str]) -> dict[str, str]:
-    """Run id → the command recorded for it in the run directories' ``config.json``."""
-    out: dict[str, str] = {}
-    for d in run_dirs:
-        for run in load_config(d).get("runs", []):
-            if run.get("command"):
-                out[run["run_id"]] = run["command"]
-    return out
-
-
-def run_trainings(run_dirs: Sequence[Path | str]) -> dict[str, str]:
-    """Run id → the training budget recorded for it in the run directories' ``config.json``."""
-    out: dict[str, str] = {}
-    for d in run_dirs:
-        for run in load_config(d).get("runs", []):
-            if run.get("training"):
-                out[run["run_id"]] = run["training"]
-    return out
-
-
-def csv_table(
-    summaries: Sequence[Summary],
-    commands: Mapping[str, str] | None = None,
-    trainings: Mapping[str, str] | None = None,
-) -> str:
-    """One row per env × method (empty cells where a value is undefined); ``command``: the
-    command recorded for the run (``commands``: run id → command); ``training``: its training
-    budget (``trainings``: run id → budget); ``provenance`` is left empty (a runner row)."""
-    commands = commands or {}
-    trainings = trainings or {}
-    buf = io.StringIO()
-    writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(CSV_COLUMNS)
-
-    def v(x: float | None) -> str:
-        return "" if x is None else repr(x)
-
-    for s in summaries:
-        writer.writerow(
-            [
-                s.env_id,
-                s.method,
-                s.agent,
-                s.run_id,
-                s.max_steps,
-                s.num_seeds,
-                s.episodes,
-                s.errors,
-                v(s.success.mean),
-                v(s.success.std),
-                v(s.reward.mean),
-                v(s.reward.std),
-                s.reward.n,
-                v(s.inference_time.mean),
-                v(s.inference_time.std),
-                v(s.steps.mean),
-                v(s.steps.std),
-                v(s.env_time.mean),
-                v(s.env_time.std),
-                commands.get(s.run_id, ""),
-                " ".join(str(m.seed) for m in s.per_seed),
-                json.dumps(s.agent_args, sort_keys=True, default=str),
-                trainings.get(s.run_id, ""),
-                "",
-            ]
-        )
-    return buf.getvalue()
 
 
 def plot_success(summaries: Sequence[Summary], path: Path | str) -> Path:

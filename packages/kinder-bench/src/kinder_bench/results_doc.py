@@ -41,7 +41,7 @@ from kinder_bench.paper import (
     variant_name,
 )
 from kinder_bench.protocol import PAPER_EPISODES, PAPER_SEEDS
-from kinder_bench.report import CSV_COLUMNS
+from kinder_bench.summary import CSV_COLUMNS
 
 GENERATOR = "make results-doc"
 

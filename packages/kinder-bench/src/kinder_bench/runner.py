@@ -40,7 +40,6 @@ from kinder_bench.executors import execute
 from kinder_bench.metrics import aggregate
 from kinder_bench.protocol import PAPER_EPISODES, PAPER_MAX_STEPS, PAPER_SEEDS
 from kinder_bench.recording import VIDEO_FORMATS, write_video
-from kinder_bench.report import CSV_FILE, csv_table, dedupe, run_commands, run_trainings
 from kinder_bench.results import (
     CONFIG_FILE,
     RESULTS_FILE,
@@ -53,6 +52,7 @@ from kinder_bench.results import (
     write_json,
     write_text,
 )
+from kinder_bench.summary import CSV_FILE, csv_table, dedupe, run_commands, run_trainings
 
 #: Fields that are wall-clock measurements (everything else in a record is deterministic).
 TIMING_FIELDS = ("inference_time", "env_time", "finished_at")

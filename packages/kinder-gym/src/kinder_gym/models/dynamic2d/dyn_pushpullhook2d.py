@@ -61,11 +61,9 @@ from gymnasium import spaces
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden2d.dynamic2d import object_types as ot
 from kinder_garden2d.dynamic2d.geometry import (
-    LocalShape,
     WorldShape,
     bounds,
     kin_robot_geometry,
-    lobject_shape,
     overlaps,
     place,
     rect_shape,
@@ -81,6 +79,8 @@ from kinder_gym.models.dynamic2d.kin_robot import (
     GRIPPER_BASE_HEIGHT,
     KinRobotController,
     KinWaypoint,
+    hook_local,
+    hook_shape,
     kin_config,
     wrap,
 )
@@ -106,18 +106,6 @@ TURN_SHORT = 0.5
 SWEEP_TURN = 1.4
 #: HookDown ends by turning the robot this far (rad) clockwise at the bottom.
 HOOK_DOWN_SWEEP = 0.6
-
-
-def hook_local(state: ObjectCentricState, hook: Object) -> LocalShape:
-    """The hook's two boxes in its own frame."""
-    w, s1, s2 = (state.get(hook, k) for k in ("width", "length_side1", "length_side2"))
-    return lobject_shape(w, s1, s2)
-
-
-def hook_shape(state: ObjectCentricState, hook: Object) -> WorldShape:
-    """The hook's two boxes in the world."""
-    h = state[hook]
-    return place(hook_local(state, hook), h[0], h[1], h[2])
 
 
 def block_shape(state: ObjectCentricState, block: Object) -> WorldShape:

@@ -62,7 +62,6 @@ from kinder_garden2d.dynamic2d import object_types as ot
 from kinder_garden2d.dynamic2d.geometry import bounds
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.dynamic2d.dyn_pushpullhook2d import hook_shape
 from kinder_gym.models.dynamic2d.kin_robot import (
     ARM_JOINT,
     BASE_RADIUS,
@@ -72,6 +71,7 @@ from kinder_gym.models.dynamic2d.kin_robot import (
     THETA,
     X,
     Y,
+    hook_shape,
     wrap,
 )
 from kinder_gym.motion_planning import FloatArray

@@ -7,6 +7,9 @@ step moves straight towards the current waypoint's ``(x, y, theta, arm, gap)`` b
 with ``wait > 0`` then holds still for that many steps (to let objects settle). The robot is
 kinematic in these envs, so a step that does not move it means a static contact reverted it: the
 controller then fails fast with :class:`~kinder_gym.skills.SkillFailure`.
+
+:func:`hook_shape` is the L-shaped object the robot grasps in two families (DynPushPullHook2D's
+hook, DynScoopPour2D's scoop), so both models draw it the same way.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinder_core import Object, ObjectCentricState
+from kinder_garden2d.dynamic2d.geometry import LocalShape, WorldShape, lobject_shape, place
 from kinder_gym.motion_planning import FloatArray
 from kinder_gym.skills import Controller, SkillFailure
 
@@ -55,6 +59,18 @@ def kin_config(state: ObjectCentricState, robot: Object) -> FloatArray:
 def wrap(theta: float) -> float:
     """An angle wrapped to [−π, π)."""
     return (theta + math.pi) % (2 * math.pi) - math.pi
+
+
+def hook_local(state: ObjectCentricState, hook: Object) -> LocalShape:
+    """An L-shaped object's (a hook's, a scoop's) two boxes in its own frame."""
+    w, s1, s2 = (state.get(hook, k) for k in ("width", "length_side1", "length_side2"))
+    return lobject_shape(w, s1, s2)
+
+
+def hook_shape(state: ObjectCentricState, hook: Object) -> WorldShape:
+    """An L-shaped object's (a hook's, a scoop's) two boxes in the world."""
+    h = state[hook]
+    return place(hook_local(state, hook), h[0], h[1], h[2])
 
 
 class KinRobotController(Controller):
