@@ -53,10 +53,10 @@ def test_predicates_on_hand_built_states(env) -> None:
         "(OnShelf cuboid_1 cupboard_1)",
     }
     # cuboid_0 lying on shelf 0 of cupboard_1, 5 cm inside the opening: OnShelf, not OnGround,
-    # although its centre (2.75 cm) is as low as a rod on the floor could be tilted.
+    # although its centre (3.5 cm) is as low as a rod on the floor could be tilted.
     frame = env.regions.transform(state, "cupboard_1_shelf_0_goal_region")
     on_shelf = state.copy()
-    _set_pose(on_shelf, env.objects["cuboid_0"], frame[:3, :3] @ [0.0, 0.1, 0.0075] + frame[:3, 3])
+    _set_pose(on_shelf, env.objects["cuboid_0"], frame[:3, :3] @ [0.0, 0.1, 0.015] + frame[:3, 3])
     assert atoms(model, on_shelf) == {
         "(HandEmpty robot)",
         "(OnShelf cuboid_0 cupboard_1)",
@@ -103,10 +103,10 @@ def test_rod_geometry_helpers(env) -> None:
     assert _rod_elevation(state, rod, 0.0) == pytest.approx(tilt, abs=1e-9)
     assert _rod_elevation(state, rod, math.pi) == pytest.approx(-tilt, abs=1e-9)
     # Lowest point: the bottom edge of the lower end (the rod's width stays horizontal).
-    low = 0.2 - 0.075 * math.sin(tilt) - 0.0075 * math.cos(tilt)
+    low = 0.2 - 0.15 * math.sin(tilt) - 0.015 * math.cos(tilt)
     assert _rod_bottom(state, rod) == pytest.approx(low, abs=1e-9)
     # The base pose that puts a rod held at (local, angle) where asked, axis along `yaw`.
-    _set_pose(state, rod, (1.0, 0.0, 0.0075), qz)
+    _set_pose(state, rod, (1.0, 0.0, 0.015), qz)
     for feature, value in zip(("pos_base_x", "pos_base_y", "pos_base_rot"), (0.2, 0.1, 0.3)):
         state.set(robot, feature, value)
     local, angle = _rod_in_base(state, robot, rod)
@@ -158,7 +158,7 @@ def test_pick_and_place_reach_their_predictions(env) -> None:
     # The rod lies level along the cupboard's depth, and the hand is back outside.
     rod = env.objects["cuboid_0"]
     assert abs(_rod_elevation(state, rod, 0.0)) < math.radians(5)
-    assert state.get(rod, "z") == pytest.approx(0.0275, abs=0.005)
+    assert state.get(rod, "z") == pytest.approx(0.035, abs=0.005)
 
 
 def test_place_is_not_initiable_with_an_open_hand(env) -> None:

@@ -1,11 +1,12 @@
-"""The ConstrainedCupboard3D planning model: put 15 cm rods lying on the floor onto given shelves
+"""The ConstrainedCupboard3D planning model: put 30 cm rods lying on the floor onto given shelves
 of narrow cupboards standing side by side.
 
 Every cupboard is 0.1 m wide with 2 cm side walls, so its opening is 6 cm wide and 0.3 m deep; a
-rod (1.5 × 15 × 1.5 cm) fits only lying along the cupboard's depth, and the open fingers (8.5 cm)
-do not fit in the opening at all. So the robot grasps a rod near one end, along its length, and
-slides it in end first, releasing it with the fingers still outside the opening; the rod's centre
-then lies inside the cupboard (the env's ``on`` test is the centre being in the shelf's goal box).
+rod (3 × 30 × 3 cm, as upstream's) fits only lying along the cupboard's depth, and the open
+fingers (8.5 cm) do not fit in the opening at all. So the robot grasps a rod near one end, along
+its length, and slides it in end first, releasing it with the fingers still outside the opening;
+the rod's centre then lies inside the cupboard (the env's ``on`` test is the centre being in the
+shelf's goal box).
 
 Concepts:
 
@@ -106,8 +107,9 @@ from kinder_gym.motion_planning import FloatArray, wrap_angle
 from kinder_gym.skills import Skill, SkillFailure
 
 ROD_PREFIX = "cuboid_"
-#: Height (m) of the pinch point when the fingers close on a 1.5 cm rod lying on the floor.
-GRASP_Z = 0.012
+#: Height (m) of the pinch point above the centre of a rod lying on the floor when the fingers
+#: close on it (4.5 mm: the pads' lower edges stay clear of the floor).
+GRASP_ABOVE_CENTRE = 0.0045
 #: Height (m) of the pinch point while carrying a rod.
 CARRY_Z = 0.10
 #: Height (m) of a held rod's underside above the goal shelf while it is slid in.
@@ -218,7 +220,7 @@ class PickController(Dynamic3DController):
         if not _clear_of_cupboards(ctx, state, b0[:2], goal[:2]):
             raise SkillFailure("Pick: the straight base path passes a cupboard")
         quat = gripper_quat(heading, PITCH)
-        grasp = np.array([*point, GRASP_Z])
+        grasp = np.array([*point, state.get(rod, "bb_z") / 2 + GRASP_ABOVE_CENTRE])
         above = np.array([*(point - 0.01 * axis), 0.15])
 
         def descend(s: ObjectCentricState) -> list[Segment]:
@@ -408,7 +410,8 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         }
         for i, r in enumerate(rods):
             near = nearest_axis_point(state, r, pinch)
-            if closed and near[2] > 0.012 and np.linalg.norm(near - pinch) < 0.03:
+            resting = state.get(r, "bb_z") / 2 + GRASP_ABOVE_CENTRE
+            if closed and near[2] > resting and np.linalg.norm(near - pinch) < 0.03:
                 atoms.add(Holding.ground([robot_obj, r]))
                 continue
             shelves = [cup for cup in regions if inside[cup][i]]
