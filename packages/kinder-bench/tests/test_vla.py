@@ -168,16 +168,18 @@ def test_vla_agent_says_it_needs_a_server() -> None:
     assert VLAAgent.unavailable(VLAArgs(url="ws://127.0.0.1:8000"), MOTION) is None
 
 
-def test_vla_cameras_overview_sends_the_overview_image_only() -> None:
-    """Upstream's 3D evaluation sent the overview image; ``cameras=overview`` does, and the
-    default sends the three cameras of our openpi export."""
+def test_vla_sends_the_overview_image_by_default_and_all_cameras_as_a_variant() -> None:
+    """Upstream's 3D evaluation sent the overview image only, and so does the default;
+    ``cameras=all`` sends the three cameras of our openpi export, the overview one last."""
     env = kinder_core.make("kinder/BaseMotion3D-v0")
     obs, _ = env.reset(seed=1000)
-    both = VLAAgent(env, VLAArgs(url="ws://127.0.0.1:1"), seed=0).request(obs)["observation"]
-    one = VLAAgent(env, VLAArgs(url="ws://127.0.0.1:1", cameras="overview"), seed=0)
-    only = one.request(obs)["observation"]
-    assert {"base_0_rgb", "left_wrist_0_rgb", "right_wrist_0_rgb"} <= set(both)
+    assert VLAArgs().cameras == "overview"
+    only = VLAAgent(env, VLAArgs(url="ws://127.0.0.1:1"), seed=0).request(obs)["observation"]
+    every = VLAAgent(env, VLAArgs(url="ws://127.0.0.1:1", cameras="all"), seed=0)
+    three = every.request(obs)["observation"]
+    assert {"base_0_rgb", "left_wrist_0_rgb", "right_wrist_0_rgb"} <= set(three)
     assert "left_wrist_0_rgb" not in only and "right_wrist_0_rgb" not in only
-    np.testing.assert_array_equal(only["base_0_rgb"], both["right_wrist_0_rgb"])
+    np.testing.assert_array_equal(only["base_0_rgb"], three["right_wrist_0_rgb"])
+    assert not np.array_equal(three["base_0_rgb"], three["right_wrist_0_rgb"])
     with pytest.raises(ValueError, match="cameras must be one of"):
         VLAArgs(url="ws://127.0.0.1:1", cameras="wrist")

@@ -8,30 +8,28 @@ evaluation half: it speaks openpi's WebSocket + msgpack-numpy protocol
 ``scripts/serve_policy.py`` with a fine-tuned checkpoint on a GPU machine, or our own
 :class:`~kinder_bench.policy_server.server.PolicyServer`.
 
-Per episode the agent opens one connection. When its action queue is empty it sends the request
-upstream KinDER's openpi bridge sends::
+Per episode the agent opens one connection. When its action queue is empty it sends an openpi
+request::
 
-    {"observation": {"base_0_rgb": uint8 224×224×3,        # 3D: base camera; 2D: the env render
-                     "left_wrist_0_rgb": uint8 224×224×3,  # 3D: wrist camera (absent in 2D)
-                     "right_wrist_0_rgb": uint8 224×224×3, # 3D: overview camera (absent in 2D)
+    {"observation": {"base_0_rgb": uint8 224×224×3,   # 2D: the env render; 3D: see below
                      "state": float32 robot features},
      "prompt": the env's task, "batch_size": None}
 
-in 3D with ``cameras="all"`` (the default: the three cameras our openpi export,
-:mod:`kinder_gym.demos.openpi_format`, writes, so a policy trained on it sees at evaluation what it
-was trained on). Upstream's 3D evaluation sent the overview image only (baselines spec §3.5);
-``cameras="overview"`` does that, sending the overview camera as ``base_0_rgb`` and no wrist
-images. A run with ``cameras="all"`` in 3D is therefore a labelled variant of the paper's VLA
-(``kinder_bench/data/paper_settings.csv``); in 2D both send the one render.
-
 with the images, robot state and task text made exactly as the demonstration datasets make them
 (``camera_frames`` at ``image_size`` and ``StateSplit`` of :mod:`kinder_gym.demos.layout`,
-``env_task`` of :mod:`kinder_gym.demos.lerobot_format`), so a policy sees at evaluation what it was
-trained on, and executes the first
+``env_task`` of :mod:`kinder_gym.demos.lerobot_format`), and executes the first
 ``action_horizon`` actions (8, as upstream) of the returned chunk, each sliced to the env's action
 size and clipped to its bounds. The runner counts the whole request as inference time. A server
 that cannot be reached, fails, times out or replies malformed data ends the episode as a failure
 whose error names the cause.
+
+Cameras in 3D (``cameras``): upstream's 3D evaluation sent the overview image only (baselines spec
+§3.5: its ``scripts/eval.py`` bridge passes the overview image), so the default, ``overview``,
+sends the overview camera as ``base_0_rgb`` and no other image. ``all`` sends the three cameras
+our openpi export (:mod:`kinder_gym.demos.openpi_format`) writes, as ``base_0_rgb`` (base),
+``left_wrist_0_rgb`` (wrist) and ``right_wrist_0_rgb`` (overview), which a policy trained on
+that export expects (docs/vla.md's 3D config); a 3D run with ``all`` is a labelled variant of the
+paper's VLA (``kinder_bench/data/paper_settings.csv``). In 2D both send the one render.
 
 Deviation: upstream sends no environment state (π0.5 sees images, robot state and the prompt);
 we add ``observation["environment_state"]`` (float32, every non-robot feature) so that
@@ -80,10 +78,10 @@ class VLAArgs:
     """The language instruction; empty: the env's task description."""
     api_key: str = ""
     """Sent as ``Authorization: Api-Key ...`` when non-empty."""
-    cameras: str = "all"
-    """3D images sent: ``all`` (base, wrist and overview, as our openpi export writes them) or
-    ``overview`` (the overview image only, as upstream's 3D evaluation; see the module
-    docstring)."""
+    cameras: str = "overview"
+    """3D images sent: ``overview`` (the overview image only, as upstream's 3D evaluation) or
+    ``all`` (base, wrist and overview, as our openpi export writes them; a variant). See the
+    module docstring."""
 
     def __post_init__(self) -> None:
         if self.cameras not in CAMERA_MODES:
