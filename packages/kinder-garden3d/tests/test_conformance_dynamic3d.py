@@ -42,13 +42,28 @@ trajectories (the fixture stays under 200 KB).
 
 ConstrainedCupboard3D-o1 (recorded the same way) needs no family rule: its one-step errors are
 base median 1.3e-4, max 2.5e-4; arm median 0.029, max 0.051; gripper max 0.010; objects 2e-12.
+
+Tossing3D-o1 (recorded the same way) needs no family rule: one-step errors base median 1.3e-4,
+max 2.5e-4; arm median 0.029, max 0.051; gripper max 0.010; objects 3e-12.
+
+BalanceBeam3D-o3 (recorded the same way; the fixture keeps the first 20 steps of the three random
+trajectories): ours also observes the seesaw's hinge (``EXTRA_FEATURES``, a kept deviation), left
+out of the comparison and set to 0 (the beam at rest, level) in states built from upstream's
+vectors. The two small blocks are exchangeable and pooled (``small_block_*``); a small block
+tumbles onto another face in 2 of upstream's 80 placements (none of ours), so their orientation
+is compared by the KS test alone. Upstream's seesaw still rocks after the settle (its angular
+velocity up to 0.019 rad/s, its mesh pivot), ours rests: both lie within ``SETTLE_NOISE``.
+One-step errors: base median 1.4e-4, max 2.5e-4; arm median 0.028, max 0.042; gripper max 0.010;
+objects 1.0e-4 (the blocks resting 0.1 mm deeper in upstream's contacts).
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
+import gymnasium
 import numpy as np
 import pytest
 
@@ -62,7 +77,12 @@ from kinder_core.conformance import (
 )
 
 DATA = Path(__file__).parent / "data" / "conformance"
-IDS = ("Shelf3D-o1", "SweepIntoDrawer3D-o5", "ConstrainedCupboard3D-o1")
+IDS = (
+    "Shelf3D-o1",
+    "SweepIntoDrawer3D-o5",
+    "ConstrainedCupboard3D-o1",
+    "Tossing3D-o1",
+)
 SETTLE_ATOL = 1e-9  # float rounding after the resolution
 CONST_ATOL = 1e-6
 #: Range slack, as a share of upstream's range at each end: at least 10 %, and for n of our samples
@@ -71,15 +91,23 @@ RANGE_SLACK = 0.1
 RANGE_MISS = 1e-4
 ALPHA = 1e-3
 #: Features pooled over exchangeable objects: id -> object-name prefix.
-POOLED = {"kinder/SweepIntoDrawer3D-o5-v0": "cube_"}
+POOLED = {"kinder/SweepIntoDrawer3D-o5-v0": "cube_", "kinder/BalanceBeam3D-o3-v0": "small_block_"}
 #: Pooled features compared by the KS test alone: the orientation and angular velocity of the
 #: dropped cubes, whose extremes come from the few cubes that tumble (12 of 200 upstream, 6 of 150
 #: ours over 40 and 30 seeds).
 POOLED_TAILS = {
     "kinder/SweepIntoDrawer3D-o5-v0": {
         f"cube_*.{f}" for f in ("qw", "qx", "qy", "qz", "wx", "wy", "wz", "vx", "vy", "vz")
-    }
+    },
+    "kinder/BalanceBeam3D-o3-v0": {f"small_block_*.{f}" for f in ("qw", "qx", "qy", "qz")},
 }
+#: Features that settle to rest in ours but keep a small motion in upstream's, with the bound
+#: (absolute) within which both sides match: upstream's seesaw pivot (a convex mesh) still
+#: rocks at up to 0.019 rad/s after the ten settle steps (21 of 40 seeds above 0.005).
+SETTLE_NOISE = {"kinder/BalanceBeam3D-o3-v0": {f"seesaw_1.{f}": 0.03 for f in ("wx", "wy", "wz")}}
+#: Our features that upstream does not observe (left out of every comparison, set to 0 when a
+#: state is built from upstream's vector): BalanceBeam3D's seesaw hinge (env docstring).
+EXTRA_FEATURES = {"kinder/BalanceBeam3D-o3-v0": ("seesaw_1.hinge_pos", "seesaw_1.hinge_vel")}
 #: Per-step tolerances of the one-step replay, by feature group: (median, max) over every step
 #: (see the module docstring).
 STEP_TOL = {
@@ -141,6 +169,12 @@ def compare(ours: np.ndarray, fx: Fixture) -> list[str]:
             if err > CONST_ATOL:
                 problems.append(f"{name}: upstream constant {want!r}, ours off by {err:.3g}")
             continue
+        bound = SETTLE_NOISE.get(fx.env_id, {}).get(name)
+        if bound is not None:
+            err = max(float(np.abs(col).max()), float(np.abs(up[name]).max()))
+            if err > bound:
+                problems.append(f"{name}: {err:.3g} beyond the settle noise bound {bound}")
+            continue
         key = _group(name, fx.env_id)
         pooled_ours.setdefault(key, []).append(col)
         pooled_up.setdefault(key, []).append(up[name])
@@ -164,22 +198,39 @@ def compare(ours: np.ndarray, fx: Fixture) -> list[str]:
     return problems
 
 
+def _columns(env: gymnasium.Env[Any, Any], fx: Fixture) -> list[int]:
+    """Where each of upstream's features is in our vector."""
+    names = list(env.unwrapped.box_space.feature_names)  # type: ignore[attr-defined]
+    return [names.index(f) for f in fx.feature_names]
+
+
+def _to_ours(env: gymnasium.Env[Any, Any], fx: Fixture, vec: np.ndarray) -> np.ndarray:
+    """Our state vector for upstream's ``vec`` (``EXTRA_FEATURES`` at 0)."""
+    names = list(env.unwrapped.box_space.feature_names)  # type: ignore[attr-defined]
+    out = np.zeros(len(names))
+    out[_columns(env, fx)] = vec
+    return out
+
+
 def test_feature_names_are_upstreams(fixture: Fixture) -> None:
     env = kinder_core.make(fixture.env_id)
-    assert list(env.unwrapped.box_space.feature_names) == fixture.feature_names
+    extra = EXTRA_FEATURES.get(fixture.env_id, ())
+    names = list(env.unwrapped.box_space.feature_names)
+    assert [n for n in names if n not in extra] == fixture.feature_names
+    assert all(n in names for n in extra)
 
 
 def test_reset_distribution_matches_upstream(fixture: Fixture) -> None:
     env = kinder_core.make(fixture.env_id)
     ours = sample_resets(env, range(1000, 1030))
-    assert not compare(ours, fixture)
+    assert not compare(ours[:, _columns(env, fixture)], fixture)
 
 
 @pytest.mark.slow
 def test_reset_distribution_matches_upstream_on_100_seeds(fixture: Fixture) -> None:
     env = kinder_core.make(fixture.env_id)
     ours = sample_resets(env, range(1000, 1100))
-    assert not compare(ours, fixture)
+    assert not compare(ours[:, _columns(env, fixture)], fixture)
 
 
 def test_the_comparison_catches_a_shifted_region(fixture: Fixture) -> None:
@@ -217,13 +268,14 @@ def one_step_errors(fx: Fixture, **config: object) -> dict[str, np.ndarray]:
     upstream's state before it (``config``: Dynamic3DConfig fields)."""
     env = kinder_core.make(fx.env_id, **({"config": config} if config else {}))
     groups = _groups(fx.feature_names)
+    columns = _columns(env, fx)
     errors: dict[str, list[float]] = {g: [] for g in groups}
     for traj in fx.trajectories:
         before = traj.init_state
         for k, action in enumerate(traj.actions):
-            env.reset(options={"init_state": before.copy()})
+            env.reset(options={"init_state": _to_ours(env, fx, before)})
             obs, *_ = env.step(action.copy())
-            err = np.abs(np.asarray(obs, dtype=np.float64) - traj.states[k])
+            err = np.abs(np.asarray(obs, dtype=np.float64)[columns] - traj.states[k])
             for g, idx in groups.items():
                 errors[g].append(float(err[idx].max()))
             before = traj.states[k]

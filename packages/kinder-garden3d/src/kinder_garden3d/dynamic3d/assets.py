@@ -237,7 +237,16 @@ def _open_box(size: Sequence[float], wall: float, rgba: Sequence[float]) -> list
 
 
 def _bin(name: str, p: Params) -> ObjectAsset:
-    return _simple(name, _open_box(p["size"], p["wall"], p["rgba"]), p["mass"], p["friction"])
+    """An open bin. ``origin`` is its body frame: ``"centre"`` (the bounding-box centre) or
+    ``"bottom"`` (the centre of its bottom face, upstream kindergarden 0.2.5's bin frame, so the
+    observed ``z`` is the height of the surface it stands on)."""
+    parts = _open_box(p["size"], p["wall"], p["rgba"])
+    if p["origin"] == "centre":
+        return _simple(name, parts, p["mass"], p["friction"])
+    if p["origin"] != "bottom":
+        raise ValueError(f"bin {name!r}: origin must be 'centre' or 'bottom', got {p['origin']!r}")
+    lo, hi = _bbox(parts)
+    return ObjectAsset(_parts_xml(name, parts, p["mass"], p["friction"]), hi - lo, 0.0)
 
 
 def _bowl(name: str, p: Params) -> ObjectAsset:
@@ -328,9 +337,12 @@ def _screw(name: str, p: Params) -> ObjectAsset:
 
 
 def _wiper(name: str, p: Params) -> ObjectAsset:
-    """A wiper / broom lying flat: a handle along x and a head across it.
+    """A wiper / broom: with ``upright`` false (the default), lying flat: a handle along x and a
+    head across it; with ``upright`` true, standing on its head: a head of ``head_length`` along
+    x, ``head_width`` along y and ``head_height`` tall, and the handle (``handle_length`` tall)
+    rising from its middle (upstream kindergarden 0.2.5's default wiper).
 
-    ``head_side`` puts the head at the handle's ``"+x"`` or ``"-x"`` end (upstream
+    ``head_side`` puts a flat wiper's head at the handle's ``"+x"`` or ``"-x"`` end (upstream
     kindergarden 0.2.5's wiper has it at -x); ``origin`` is the body frame: ``"centre"`` (the
     bounding-box centre, as every other object) or ``"bottom"`` (the centre of the bottom face,
     upstream's wiper frame, so the observed ``z`` is the height of the surface it rests on).
@@ -352,6 +364,11 @@ def _wiper(name: str, p: Params) -> ObjectAsset:
         _Box((sign * hl / 2, 0, head_h - hw / 2), (hl, hw, hw), p["handle_rgba"]),
         _Box((sign * (hl + head_w / 2), 0, head_h / 2), (head_w, head_l, head_h), p["head_rgba"]),
     ]
+    if p["upright"]:
+        parts = [
+            _Box((0, 0, head_h / 2), (head_l, head_w, head_h), p["head_rgba"]),
+            _Box((0, 0, head_h + hl / 2), (hw, hw, hl), p["handle_rgba"]),
+        ]
     if p["origin"] == "centre":
         return _simple(name, parts, p["mass"], p["friction"])
     parts, size = _centred(parts)
@@ -374,25 +391,42 @@ def _scoop(name: str, p: Params) -> ObjectAsset:
 
 
 def _seesaw(name: str, p: Params) -> ObjectAsset:
-    """A seesaw: a pivot block on a base plate (the body frame is the pivot block's centre) and
-    a beam on a hinge about y at the pivot's top, with stiffness, damping, friction loss and a
-    range. The plate keeps the pivot from tipping over when the beam is loaded off-centre."""
+    """A seesaw: a pivot block and a beam on a hinge about y at the pivot's top, with stiffness,
+    damping, friction loss and a range.
+
+    ``base_plate`` (default true) stands the pivot on a plate (``base_size``) that keeps it from
+    tipping over when the beam is loaded off-centre; upstream kindergarden 0.2.5's seesaw has
+    none (its pivot is a triangular prism with the block's 3.5 cm x 7 cm footprint on the floor).
+    ``origin`` is the body frame: ``"pivot"`` (the pivot block's centre) or ``"bottom"`` (the
+    centre of the seesaw's bottom face, upstream's frame)."""
     bl, bw, bt = (float(v) for v in p["beam_size"])
     pw, ph = float(p["pivot_width"]), float(p["pivot_height"])
     plx, ply, plt = (float(v) for v in p["base_size"])
+    if not p["base_plate"]:
+        plx, ply, plt = 0.0, 0.0, 0.0
+    if p["origin"] not in ("pivot", "bottom"):
+        raise ValueError(
+            f"seesaw {name!r}: origin must be 'pivot' or 'bottom', got {p['origin']!r}"
+        )
+    z0 = ph / 2 + plt if p["origin"] == "bottom" else 0.0  # the pivot block's centre
     clear = float(p["beam_clearance"])
     density = p["pivot_mass"] / (pw * bw * ph + plx * ply * plt)
     beam_density = p["beam_mass"] / (bl * bw * bt)
-    geoms = "\n".join([
-        _geom("box", (pw / 2, bw / 2, ph / 2), (0, 0, 0), p["pivot_rgba"], OBJECT_CLASS,
+    geoms = [
+        _geom("box", (pw / 2, bw / 2, ph / 2), (0, 0, z0), p["pivot_rgba"], OBJECT_CLASS,
               density=density, friction=p["pivot_friction"], name=f"{name}_pivot"),
-        _geom("box", (plx / 2, ply / 2, plt / 2), (0, 0, -ph / 2 - plt / 2), p["pivot_rgba"],
-              OBJECT_CLASS, density=density, friction=p["pivot_friction"], name=f"{name}_base"),
-    ])  # fmt: skip
+    ]  # fmt: skip
+    if plt > 0:
+        geoms.append(
+            _geom("box", (plx / 2, ply / 2, plt / 2), (0, 0, z0 - ph / 2 - plt / 2),
+                  p["pivot_rgba"], OBJECT_CLASS, density=density, friction=p["pivot_friction"],
+                  name=f"{name}_base")
+        )  # fmt: skip
     lo, hi = (float(v) for v in p["hinge_range"])
     beam_z = ph / 2 + clear + bt / 2
+    top = z0 + ph / 2
     children = (
-        f'<body name="{name}_beam" pos="0 0 {ph / 2:.6g}">\n'
+        f'<body name="{name}_beam" pos="0 0 {top:.6g}">\n'
         f'<joint name="{name}_hinge" type="hinge" axis="0 1 0" range="{lo:.6g} {hi:.6g}" '
         f'stiffness="{p["hinge_stiffness"]:.6g}" damping="{p["damping"]:.6g}" '
         f'frictionloss="{p["hinge_frictionloss"]:.6g}" armature="0.0001"/>\n'
@@ -403,8 +437,9 @@ def _seesaw(name: str, p: Params) -> ObjectAsset:
         + "\n</body>"
     )  # fmt: skip
     bbox = np.array([max(bl, plx), max(bw, ply), plt + ph + clear + bt])
-    frames = {"beam": HingeFrame((0.0, 0.0, ph / 2), (0.0, 1.0, 0.0), (0.0, 0.0, clear + bt / 2))}
-    return ObjectAsset(geoms, bbox, ph / 2 + plt, children, f"{name}_hinge", frames)
+    frames = {"beam": HingeFrame((0.0, 0.0, top), (0.0, 1.0, 0.0), (0.0, 0.0, clear + bt / 2))}
+    bottom = 0.0 if p["origin"] == "bottom" else ph / 2 + plt
+    return ObjectAsset("\n".join(geoms), bbox, bottom, children, f"{name}_hinge", frames)
 
 
 #: Chair models (stand-ins for the three RoboCasa apartment chairs): seat width, depth, seat
@@ -457,7 +492,7 @@ OBJECT_TYPES: dict[str, tuple[Callable[[str, Params], ObjectAsset], Params]] = {
     "bin": (
         _bin,
         {"size": [0.3, 0.3, 0.1], "wall": 0.01, "mass": 0.5, "rgba": [0.8, 0.8, 0.0, 1.0],
-         "friction": _FRICTION},
+         "friction": _FRICTION, "origin": "centre"},
     ),
     "bowl": (
         _bowl,
@@ -485,7 +520,7 @@ OBJECT_TYPES: dict[str, tuple[Callable[[str, Params], ObjectAsset], Params]] = {
         {"handle_length": 0.3, "handle_width": 0.02, "head_length": 0.3, "head_height": 0.04,
          "head_width": 0.03, "mass": 0.3, "handle_rgba": [0.9, 0.9, 0.9, 1.0],
          "head_rgba": [0.1, 0.1, 0.1, 1.0], "friction": _FRICTION, "head_side": "+x",
-         "origin": "centre"},
+         "origin": "centre", "upright": False},
     ),
     "scoop": (
         _scoop,
@@ -496,7 +531,7 @@ OBJECT_TYPES: dict[str, tuple[Callable[[str, Params], ObjectAsset], Params]] = {
     "seesaw": (
         _seesaw,
         {"beam_size": [0.36, 0.07, 0.01], "beam_clearance": 0.0025, "pivot_height": 0.04,
-         "base_size": [0.24, 0.12, 0.006],
+         "base_size": [0.24, 0.12, 0.006], "base_plate": True, "origin": "pivot",
          "pivot_width": 0.035, "beam_mass": 0.1, "pivot_mass": 0.18, "damping": 0.02,
          "hinge_frictionloss": 0.03, "hinge_stiffness": 1.2, "hinge_range": [-0.7, 0.7],
          "beam_friction": [1.8, 0.025, 0.002], "pivot_friction": [1.5, 0.025, 0.002],

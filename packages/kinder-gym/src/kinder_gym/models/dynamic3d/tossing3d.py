@@ -1,24 +1,23 @@
-"""The Tossing3D planning model: get 2.5 cm cubes into a bin that stands beyond a barrier.
+"""The Tossing3D planning model: get 5 cm cubes into a bin that stands beyond a barrier.
 
-The scene (task file ``Tossing3D.json``): a walled room (inner faces at x = −1.5, 4.0 and
-y = ±2.7); the robot starts at the origin facing +x; cubes lie at x ∈ [0.5, 0.75],
-|y| ≤ 0.25; a 3 cm × 5 m × 10 cm, 10 kg *movable* barrier stands across the room at x = 1.3
-(0.2 m gaps at its ends, narrower than the 0.4 m chassis); the 30 × 30 × 20 cm bin stands at
-x ∈ [2.6, 3.42], |y| ≤ 2.3. Goal: every cube's centre in the box ±0.1 m around the bin's centre,
-below its rim's mid-height (the env's ``on(cube_i, blocks_goal_region)``).
+The scene (task file ``Tossing3D.json``, as upstream kindergarden 0.2.5): an open floor; the
+robot starts at the origin facing +x; cubes lie at x ∈ [0.5, 0.75], |y| ≤ 0.25; a
+6 cm × 10 m × 20 cm, 10 kg *movable* barrier stands across the floor at x = 1.3; the
+30 × 30 × 20 cm, 0.1 kg bin (its frame the centre of its bottom face) stands at
+x ∈ [1.48, 2.3], |y| ≤ 2.3 (o1) or at x = 2.0, y = 0 (o2). Goal: every cube's centre in the
+20 × 20 × 10 cm box above the bin's floor (the env's ``on(cube_i, blocks_goal_region)``; o2's
+box is fixed on the floor where the bin starts).
 
 Why this model does not toss (measured, this env): the bundled Tossing3D action is 11-D (as
 upstream kindergarden 0.2.5) and the arm tracks joint targets at most 0.1 rad ahead of the
 measured angles, so a joint turns at about 0.4–0.6 rad/s and the base drives at 0.87 m/s. The
 fastest pinch-point motion found (base driving at full speed while joints 2, 4 and 6 swing at
 full speed; ``python benchmarks/tossing_speed.py``) is 1.33 m/s, and a cube released at that
-speed from 1 m flies at most 0.63 m. The base stops 0.2 m short of the barrier (x ≈ 1.1), the
-pinch point reaches at most about 0.9 m ahead of it, so a released cube lands before x ≈ 2.6,
-while the bin's centre is at x ∈ [2.6, 3.42]: a toss from behind the barrier cannot reach the
-bin with this action space. (Upstream's tossing skill used its older 18-D action with unbounded
-joint-velocity targets, and upstream 0.2.5's o1 bin stands at x ∈ [1.48, 2.3].) What the env
-does allow, and the model uses, is the barrier's mobility: driven into it, the base topples it
-(it tips about its bottom edge and lies 3 cm high, and the base drives over it, both ways).
+speed from 1 m flies at most 0.63 m (measured with the earlier 2.5 cm cubes and bin placement);
+a toss from behind the barrier is not what this model does. (Upstream's tossing skill used its
+older 18-D action with unbounded joint-velocity targets.) What the env does allow, and the model
+uses, is the barrier's mobility: driven into it, the base topples it (it tips about its bottom
+edge), and the base drives on beyond it.
 The cube is then carried to the bin and released above it: a drop, closed-loop like every
 skill here (the controller observes the state every step, and the planner checks the abstract
 outcome of each skill and resamples when it differs).
@@ -51,7 +50,7 @@ grasp constants and reach-above / descend / close / lift sequence):
   above a sampled spot within 4 cm of the bin's centre, approaching from a sampled heading
   within ±60° of the line from the base to the bin, at most 0.05 m and 0.08 rad per action
   (at full speed the cube was flung out when the base braked); re-aim the base at the bin's
-  measured position (closed loop: the bin, 2 kg, can be nudged); open, wait, and back the base
+  measured position (closed loop: the bin, 0.1 kg, can be nudged); open, wait, and back the base
   0.3 m away.
 
 Parameter spaces are documented on each controller (``params_doc``). Differences from upstream's
@@ -59,7 +58,8 @@ Parameter spaces are documented on each controller (``params_doc``). Differences
 by a skill of its own rather than being treated as fixed; ``OnGround`` ignores the cube's
 orientation (the grasp approaches along a face of the measured yaw).
 
-Limits (measured): planner-free, each skill with up to 3 samples in a fixed order and no time
+Limits (measured on the earlier scene: 2.5 cm cubes, a 3 cm × 5 m × 10 cm barrier, walls, the
+bin at x ∈ [2.6, 3.42]): planner-free, each skill with up to 3 samples in a fixed order and no time
 budget (``python benchmarks/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 0-9``),
 Topple reached its prediction in 10 of 13 tries, Pick in 13 of 26 and Drop in 11 of 22 (the
 failures include cheap refusals of blocked straight base paths), and 5 of the 10 episodes were
@@ -71,7 +71,15 @@ time (``mj_step`` was about 80 % of a cProfile'd o1 planning call), so BP's 60 s
 is sensitive to machine load (see ``benchmarks/results/bilevel_planning.md``). The model needs
 the barrier movable (it is a movable 10 kg cuboid in this env and in
 upstream 0.2.5); a task file with a fixed barrier and this bin placement would have no solution
-with the 11-D action. Imports kinder_garden3d (the ``[3d]`` extra).
+with the 11-D action.
+
+On upstream's scene (measured, development seeds 1000–1004): BP solves o1 in 5 of 5 episodes
+(the barrier, 6 cm thick once toppled, is pushed ahead of the base rather than driven over, and
+it shoves the 0.1 kg bin along; o1's goal box moves with the bin). o2 is not solved (0 of the
+episodes run): its goal box is fixed on the floor at x = 2, and the pushed barrier shoves the bin
+off it; solving it needs a route around the barrier's end
+(|y| = 5 m) or a reach over it, which this model does not have. Imports kinder_garden3d (the
+``[3d]`` extra).
 """
 
 from __future__ import annotations
@@ -120,7 +128,8 @@ CARRY_Z = 0.40
 #: Largest base step (m, rad per action) while carrying: at the env's full 0.1 the cube was
 #: flung out of the fingers when the base braked in front of the bin (seed 0).
 CARRY_SPEED = (0.05, 0.08)
-#: Inner faces of the room's walls (xmin, xmax, ymin, ymax), m.
+#: The area (xmin, xmax, ymin, ymax, m) the base drives in: the floor is open (no walls), and
+#: every cube, the barrier's middle and the bin lie inside it.
 ROOM = (-1.5, 4.0, -2.7, 2.7)
 #: Distance (m) the chassis centre keeps from a floor cube while driving (the cubes are taller
 #: than the chassis' 2 cm ground clearance).
@@ -166,7 +175,7 @@ def _path_clear(
     b: FloatArray,
     skip: Object | None,
 ) -> bool:
-    """Whether the chassis can drive straight from ``a`` to ``b`` (x, y): inside the room, clear
+    """Whether the chassis can drive straight from ``a`` to ``b`` (x, y): inside ``ROOM``, clear
     of the bin and of the cubes on the floor other than ``skip``."""
     if not _in_room(b):
         return False
