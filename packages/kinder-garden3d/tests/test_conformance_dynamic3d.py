@@ -43,6 +43,14 @@ trajectories (the fixture stays under 200 KB).
 ConstrainedCupboard3D-o1 (recorded the same way) needs no family rule: its one-step errors are
 base median 1.3e-4, max 2.5e-4; arm median 0.029, max 0.051; gripper max 0.010; objects 2e-12.
 
+Dynamo3D-o1 (recorded the same way; ``KEPT``, ``STEP_TOL_BY_ID``): upstream observes its mesh
+armchair's site box (0.5 x 0.5 x 0.9 m) as bb_x, bb_y, bb_z, ours its stand-in's collision box
+(upstream's stated 0.7 x 0.8 x 0.8 m footprint), and upstream's chair still rocks after the
+settle (angular velocity up to 0.03 rad/s), ours rests: those features are left out. When the
+robot drives into the chair (5 of the 90 random steps), the mesh chair and our primitive one
+move differently: objects max 0.05 m (measured 0.046; median 4.4e-4). Other one-step errors:
+base median 1.4e-4, max 2.7e-3; arm median 0.029, max 0.051; gripper max 0.010.
+
 Tossing3D-o1 (recorded the same way) needs no family rule: one-step errors base median 1.3e-4,
 max 2.5e-4; arm median 0.029, max 0.051; gripper max 0.010; objects 3e-12.
 
@@ -82,6 +90,7 @@ IDS = (
     "SweepIntoDrawer3D-o5",
     "ConstrainedCupboard3D-o1",
     "Tossing3D-o1",
+    "Dynamo3D-o1",
 )
 SETTLE_ATOL = 1e-9  # float rounding after the resolution
 CONST_ATOL = 1e-6
@@ -119,6 +128,14 @@ STEP_TOL = {
 #: Resolution of the distribution comparison by feature kind: values are rounded to it on both
 #: sides first, so that resting contact depths (0.1 mm) and settling noise do not count.
 RESOLUTION = {"position": 1e-3, "angle": 1e-3, "quaternion": 1e-2, "velocity": 1e-2}
+#: Features left out of the distribution comparison, kept deviations (module docstring).
+KEPT = {
+    "kinder/Dynamo3D-o1-v0": {
+        *(f"obstacle_chair.{f}" for f in ("bb_x", "bb_y", "bb_z", "wx", "wy", "wz")),
+    }
+}
+#: Per-id one-step tolerances that replace ``STEP_TOL``'s for some groups (module docstring).
+STEP_TOL_BY_ID = {"kinder/Dynamo3D-o1-v0": {"objects": (1e-3, 0.05)}}
 
 
 @pytest.fixture(scope="module", params=IDS)
@@ -162,6 +179,8 @@ def compare(ours: np.ndarray, fx: Fixture) -> list[str]:
     pooled_ours: dict[str, list[np.ndarray]] = {}
     pooled_up: dict[str, list[np.ndarray]] = {}
     for i, name in enumerate(names):
+        if name in KEPT.get(fx.env_id, ()):
+            continue
         col = ours[:, i]
         if name in fx.resets.constants:
             want = fx.resets.constants[name]
@@ -283,14 +302,15 @@ def one_step_errors(fx: Fixture, **config: object) -> dict[str, np.ndarray]:
 
 
 def over_tolerance(
-    errors: dict[str, np.ndarray], median: bool = True
+    errors: dict[str, np.ndarray], median: bool = True, env_id: str = ""
 ) -> dict[str, tuple[float, float]]:
-    """The groups whose median (if ``median``) or maximum error exceeds ``STEP_TOL``:
-    (median, max)."""
+    """The groups whose median (if ``median``) or maximum error exceeds ``STEP_TOL`` (or
+    ``STEP_TOL_BY_ID``'s for ``env_id``): (median, max)."""
+    tol = {**STEP_TOL, **STEP_TOL_BY_ID.get(env_id, {})}
     out = {}
     for g, e in errors.items():
         med, top = float(np.median(e)), float(e.max())
-        if (median and med > STEP_TOL[g][0]) or top > STEP_TOL[g][1]:
+        if (median and med > tol[g][0]) or top > tol[g][1]:
             out[g] = (med, top)
     return out
 
@@ -298,7 +318,7 @@ def over_tolerance(
 @pytest.mark.slow
 def test_one_step_transitions_match_upstream_within_tolerance(fixture: Fixture) -> None:
     assert fixture.trajectories
-    over = over_tolerance(one_step_errors(fixture))
+    over = over_tolerance(one_step_errors(fixture), env_id=fixture.env_id)
     assert not over, f"{fixture.env_id}: one-step errors (median, max) over tolerance: {over}"
 
 
@@ -314,7 +334,7 @@ def test_first_steps_match_upstream_within_tolerance(fixture: Fixture) -> None:
         terminated=traj.terminated[:5],
     )
     short = replace(fixture, trajectories=[first])
-    over = over_tolerance(one_step_errors(short), median=False)
+    over = over_tolerance(one_step_errors(short), median=False, env_id=fixture.env_id)
     assert not over, f"{fixture.env_id}: one-step errors (median, max) over tolerance: {over}"
 
 

@@ -452,6 +452,9 @@ CHAIR_MODELS: dict[str, tuple[float, float, float, float, bool]] = {
 
 
 def _chair(name: str, p: Params) -> ObjectAsset:
+    """A chair stand-in. ``origin_height`` (m) puts the body frame that far above the floor when
+    the chair stands (upstream kindergarden 0.2.5 observes its mesh chairs' frame, -0.203 m for
+    the armchair); ``None`` puts it at the bounding box's centre."""
     w, dpt, seat_h, back_h, arms = CHAIR_MODELS[p["model"]]
     leg = 0.04
     seat_t = 0.05
@@ -476,7 +479,16 @@ def _chair(name: str, p: Params) -> ObjectAsset:
             parts.append(
                 _Box((sx * (w / 2 - 0.04), 0.0, seat_h + 0.15), (0.08, dpt * 0.8, 0.06), rgba)
             )
-    return _simple(name, parts, p["mass"], p["friction"])
+    if p["origin_height"] is None:
+        return _simple(name, parts, p["mass"], p["friction"])
+    lo, hi = _bbox(parts)
+    height = float(p["origin_height"])
+    shift = np.array([(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, lo[2] + height])
+    moved = [
+        _Box(_vec3(np.array(q.centre) - shift), q.size, q.rgba, q.kind, q.euler, q.collide)
+        for q in parts
+    ]
+    return ObjectAsset(_parts_xml(name, moved, p["mass"], p["friction"]), hi - lo, height)
 
 
 _FRICTION = [1.0, 0.005, 0.0001]
@@ -540,7 +552,8 @@ OBJECT_TYPES: dict[str, tuple[Callable[[str, Params], ObjectAsset], Params]] = {
     "chair": (
         _chair,
         {"model": "apartment_chair_4", "mass": 6.0, "rgba": [0.55, 0.35, 0.2, 1.0],
-         "frame_rgba": [0.2, 0.2, 0.2, 1.0], "friction": [0.6, 0.005, 0.0001]},
+         "frame_rgba": [0.2, 0.2, 0.2, 1.0], "friction": [0.6, 0.005, 0.0001],
+         "origin_height": None},
     ),
 }  # fmt: skip
 

@@ -27,7 +27,7 @@ from kinder_garden3d.dynamic3d.object_types import (
 )
 from kinder_garden3d.dynamic3d.predicates import GoalEvaluator, Regions
 from kinder_garden3d.dynamic3d.scene import ARM_KD, ARM_KP, ROBOT_PREFIX, Scene, build_scene
-from kinder_garden3d.dynamic3d.taskfile import ROBOT, TaskSpec, load_task
+from kinder_garden3d.dynamic3d.taskfile import GROUND, ROBOT, TaskSpec, load_task
 from kinder_garden3d.robot.description import GRIPPER_STROKE, robot_description
 from kinder_garden3d.robot.mjcf import ARM_TORQUE_LIMITS
 
@@ -663,6 +663,11 @@ class Dynamic3DEnv(ObjectCentricEnv):
                 return
         raise _PlacementFailure(f"could not place {name!r} in region {region!r} without collisions")
 
+    def _qpos_of(self, name: str) -> Array:
+        """The free joint's position coordinates (x, y, z) of object ``name``."""
+        qa = int(self.model.jnt_qposadr[self.model.joint(f"{name}_joint").id])
+        return np.array(self.data.qpos[qa : qa + 3])
+
     def _fixture_aabb(self, name: str) -> tuple[Array, Array]:
         mid = int(self.model.body_mocapid[self.model.body(name).id])
         pos, quat = self.data.mocap_pos[mid], self.data.mocap_quat[mid]
@@ -689,12 +694,22 @@ class Dynamic3DEnv(ObjectCentricEnv):
         raise _PlacementFailure(f"could not place fixture {name!r} in region {region!r}")
 
     def _place_robot(self, rng: np.random.Generator, region: str | None) -> None:
+        """Place the base in ``region``, or (``None``) anywhere in the default robot region at
+        any yaw and at least the task's ``robot_clearance`` from every object on the ground."""
         d = self.data
+        on_ground = [
+            self._qpos_of(entity)[:2]
+            for _, entity, where in self.task.initial_state
+            if entity in self.task.objects and self.task.regions[where].target == GROUND
+        ]
+        clearance = self.task.robot_clearance
         for _ in range(self.config.max_placement_tries):
             if region is None:
                 x0, y0, x1, y1 = self.config.default_robot_region
                 x, y = rng.uniform(x0, x1), rng.uniform(y0, y1)
                 yaw = float(rng.uniform(-math.pi, math.pi))
+                if any(math.hypot(x - p[0], y - p[1]) < clearance for p in on_ground):
+                    continue
             else:
                 point, yaw = self._region_sample(rng, region)
                 x, y = point[0], point[1]

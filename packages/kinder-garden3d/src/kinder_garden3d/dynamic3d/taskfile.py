@@ -37,7 +37,7 @@ GROUND = "ground"
 _TOP_KEYS = {
     "family", "description", "instruction", "max_episode_steps", "count", "variants", "scene",
     "fixtures", "objects", "regions", "cameras", "static", "initial_state", "goal", "notes",
-    "arm_velocity_targets",
+    "arm_velocity_targets", "robot_clearance",
 }  # fmt: skip
 _SCENE_KEYS = {"description", "fixtures", "objects", "regions", "cameras", "static", "notes"}
 _PLACEMENT_PREDICATES = ("on", "in")
@@ -123,6 +123,9 @@ class TaskSpec:
     notes: str = ""
     scene: str | None = None
     arm_velocity_targets: bool = False
+    #: Smallest distance (m) between a robot base placed without a region and the centre of any
+    #: object placed on the ground (upstream kindergarden 0.2.5's ``robot_ground_clearance``).
+    robot_clearance: float = 0.0
     raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
 
@@ -437,6 +440,9 @@ def load_task(task: str, num_objects: int | None = None) -> TaskSpec:
     steps = v.integer(raw.get("max_episode_steps", 1000), "max_episode_steps")
     if steps <= 0:
         raise v.error("max_episode_steps", f"must be positive, got {steps}")
+    clearance = v.number(raw.get("robot_clearance", 0.0), "robot_clearance")
+    if clearance < 0:
+        raise v.error("robot_clearance", f"must be >= 0, got {clearance}")
     return TaskSpec(
         file=display,
         family=family,
@@ -456,6 +462,7 @@ def load_task(task: str, num_objects: int | None = None) -> TaskSpec:
         arm_velocity_targets=v.boolean(
             raw.get("arm_velocity_targets", False), "arm_velocity_targets"
         ),
+        robot_clearance=clearance,
         raw=raw,
     )
 
@@ -536,7 +543,8 @@ class _Validator:
             return out
         if isinstance(default, float) or (default is None and not isinstance(value, list)):
             out_f = self.number(value, where)
-            if key not in ("leg_height",) and out_f <= 0 and "range" not in key:
+            signed = key == "origin_height" or "range" in key  # may be zero or negative
+            if key not in ("leg_height",) and out_f <= 0 and not signed:
                 raise self.error(where, f"must be positive, got {out_f}")
             if key == "leg_height" and out_f < 0:
                 raise self.error(where, f"must be >= 0, got {out_f}")

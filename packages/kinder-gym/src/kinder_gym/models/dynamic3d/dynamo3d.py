@@ -1,11 +1,12 @@
 """The Dynamo3D planning model: drive the robot base into a goal area that movable chairs obstruct.
 
-The task (``Dynamo3D.json``; navigation among movable obstacles, not a catch-and-throw task):
-the robot starts near the origin; the goal is the robot base's centre ``(x, y)`` inside
-x ∈ [0.8, 1.2], |y| ≤ 0.2 (the env's ``on(robot, ground_goal_region)``). One 6 kg chair stands
-on the goal area (o1: ``obstacle_chair``, a 70 × 80 cm armchair; o3/o12: ``obstacle_chair_1``),
-the others (2 in o3, 10 in o12: 50–70 cm chairs) stand around it in x ∈ [1.5, 2.6] or
-0.55 ≤ |y| ≤ 1.8.
+The task (``Dynamo3D.json``; navigation among movable obstacles, not a catch-and-throw task;
+upstream kindergarden 0.2.5's layout): the robot starts anywhere in [-1, 1]² m at any heading,
+at least 0.9 m from every chair; the goal is the robot base's centre ``(x, y)`` inside the goal
+area (the env's ``on(robot, ground_goal_region)``). o1: the area is x ∈ [0.8, 1.2], |y| ≤ 0.2
+and a 6 kg 70 × 80 cm armchair (``obstacle_chair``) stands on it. o3 and o12: the area is
+(3.45..4.2)² m, ``obstacle_chair_1`` stands across its corner and the others (2 in o3, 10 in
+o12: 50–70 cm chairs) each in its own region between the start and the goal.
 
 Measured (this env): the base is a stiff position servo (60 kg chassis, targets at most 0.1 m
 ahead), and driven into a chair it shoves the chair along the floor at almost its full speed
