@@ -90,6 +90,7 @@ IDS = (
     "SweepIntoDrawer3D-o5",
     "ConstrainedCupboard3D-o1",
     "Tossing3D-o1",
+    "BalanceBeam3D-o3",
     "Dynamo3D-o1",
 )
 SETTLE_ATOL = 1e-9  # float rounding after the resolution

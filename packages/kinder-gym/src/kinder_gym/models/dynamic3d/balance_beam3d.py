@@ -5,7 +5,7 @@ Concepts:
 
 * ``HandEmpty(robot)``: the fingers are open (measured closure below 0.2).
 * ``Holding(robot, block)``: the fingers are closed and the pinch point is within 4 cm of the
-  block's centre, which is off the floor (above 1.5 cm).
+  block's centre, which is off the floor (more than 1 cm above its resting height).
 * ``OnGround(block)``: not held and the block's centre is below 3 cm.
 * ``OnBeam(block, seesaw)``: not held and the block is in the beam's goal region (the env's own
   ``on`` predicate).
@@ -21,8 +21,9 @@ Skills (the segment controller of :mod:`kinder_gym.models.dynamic3d.tidybot`):
 
 * Pick: retract the arm, drive the base (straight or through one waypoint) to a sampled
   standoff facing the block along one of its faces (roughly facing the seesaw), reach above it
-  with the gripper pitched 45° down, descend along a straight line until the pinch point is at
-  the block's top face, close, and lift to 15 cm. Shelf3D's pick
+  with the gripper pitched 45° down, descend along a straight line until the pinch point is
+  0.75 of the way up the block (at least 2 cm), above the block's measured position (the chassis
+  may have nudged it on the way), close, and lift to 15 cm. Shelf3D's pick
   (:mod:`~kinder_gym.models.dynamic3d.shelf3d`) is not reused as a whole because its approach
   and path checks are tied to the cupboard; its grasp constants (pitch, arm seed, gripper
   timing) and base driving are.
@@ -42,11 +43,12 @@ This is the only physics the model knows; the beam's true angle is checked by th
 after the skill, so a sample the estimate gets wrong is rejected and resampled.
 
 Differences from upstream: upstream kindergarden 0.2.5 has no BP model for this family (see
-``/work/shared/spec/baselines.md``); this one is ours. Limits: a block that falls off the beam or
-onto the seesaw's base plate is in no concept (the planner backtracks); the chassis passes over
-blocks on the floor (its underside is 2 cm up, the large block 1.8 cm high) but the straight base
-paths keep their centre 5 cm from them (as Shelf3D's do), through one waypoint beside the
-straight line where that is blocked. The env's beam region reaches 4 cm above the beam, so the
+``/work/shared/spec/baselines.md``); this one is ours. Limits: a block that falls off the beam
+is in no concept (the planner backtracks); the blocks (upstream's 3.6 and 2.4 cm) are taller
+than the chassis' 2 cm underside, so a chassis driving past pushes them along (they stay on the
+floor and are picked where they end up); the straight base paths keep their centre 5 cm from
+them (as Shelf3D's do), through one waypoint beside the straight line where that is blocked.
+The env's beam region reaches 4 cm above the beam, so the
 env may report the goal reached while the last block is still held just above the beam (the
 planner stops there, as the env's goal says it is done); the model's own goal also asks for
 HandEmpty. Imports kinder_garden3d (the ``[3d]`` extra).
@@ -106,6 +108,8 @@ SPACING = 0.035
 SAMPLER_ANGLE = math.radians(2.0)
 #: Height (m) of the block's bottom above the beam top when the fingers open.
 DROP = 0.015
+#: Lowest height (m) of the pinch point when grasping a block on the floor.
+GRASP_MIN_Z = 0.02
 #: Height (m) the hand rises after releasing.
 RETREAT = 0.08
 #: Radius (m) of a circle around the 0.4 m square chassis, plus a margin.
@@ -237,15 +241,21 @@ class PickController(Dynamic3DController):
         route = _route(ctx, state, block, goal)
         quat = gripper_quat(heading, PITCH)
         size = float(state.get(block, "bb_z"))
-        grasp = np.array([*(c - 0.003 * direction), size])
-        above = np.array([*(c - 0.01 * direction), 0.15])
+        # The pinch point closes 0.75 of the way up the block (at least 2 cm up, where the
+        # pitched fingertips clear the floor), above the block's measured position: the chassis
+        # may nudge a block on the way (closed loop).
+        grasp_z = max(GRASP_MIN_Z, 0.75 * size)
+
+        def _at(s: ObjectCentricState, back: float, z: float) -> FloatArray:
+            here = np.array([s.get(block, "x"), s.get(block, "y")])
+            return np.array([*(here - back * direction), z])
 
         def reach_above(s: ObjectCentricState) -> list[SegmentSource]:
-            q = ik_near(above, quat, base_pose(s, robot), READY)
+            q = ik_near(_at(s, 0.01, 0.15), quat, base_pose(s, robot), READY)
             return [_arm_segment(q)]
 
         def descend(s: ObjectCentricState) -> list[SegmentSource]:
-            return list(line_segments(s, robot, grasp, heading, PITCH, 0.0))
+            return list(line_segments(s, robot, _at(s, 0.003, grasp_z), heading, PITCH, 0.0))
 
         def lift(s: ObjectCentricState) -> list[SegmentSource]:
             here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
@@ -347,7 +357,8 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
             atoms.add(Balanced.ground([seesaw]))
         for b in blocks:
             pos = np.asarray(state[b][:3])
-            if closed and pos[2] > 0.015 and np.linalg.norm(pos - pinch) < 0.04:
+            lifted = pos[2] > float(state.get(b, "bb_z")) / 2 + 0.01
+            if closed and lifted and np.linalg.norm(pos - pinch) < 0.04:
                 atoms.add(Holding.ground([robot_obj, b]))
             elif pos[2] < 0.03:
                 atoms.add(OnGround.ground([b]))
