@@ -63,6 +63,11 @@ DEVIATIONS: dict[str, str] = {
     "differently, which changes that seed's draw (no stored seed is affected).",
     "SweepIntoDrawer3D": "Where upstream's 100 wiper draws fail (about 1 seed in 40) it drops "
     "the wiper on the floor at the origin; ours keeps drawing.",
+    "BalanceBeam3D": "The seesaw's hinge is observed (hinge_pos, hinge_vel: 88 features against "
+    "upstream's 86; left out of the comparison); its pivot is a box with the footprint of "
+    "upstream's triangular-prism mesh.",
+    "Tossing3D": "o2 has no fixture yet (its bin is fixed at x = 2 and its goal box is on the "
+    "floor, as upstream's task file says).",
 }
 HEADER = """# Conformance to upstream kindergarden 0.2.5
 
@@ -111,6 +116,13 @@ def row_for(env_id: str) -> Row:
     fx = load_fixture(path)
     env = kinder_core.make(env_id)
     tol = TOLERANCES.get(category)
+    ours = list(env.unwrapped.box_space.feature_names)  # type: ignore[attr-defined]
+    if ours != fx.feature_names:
+        # The generic checks compare vectors feature by feature (BalanceBeam3D observes two
+        # more); the family's own test maps them by name.
+        extra = len(ours) - len(fx.feature_names)
+        cell = f"not compared here: {extra:+d} features against upstream's"
+        return Row(env_id, [cell, "", "", "", "", "", deviation])
     dist = check_resets(env, fx)
     n_ok = sum(f.ok for f in dist.features)
     dist_cell = f"{n_ok}/{len(dist.features)}"
