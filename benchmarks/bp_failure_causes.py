@@ -1,12 +1,12 @@
 """Why bilevel planning finds no plan: the skill failures and abstract mismatches of each episode.
 
 Plans the first planning call of each episode of a development run seed (the runner's episode
-seeds of ``--seed``, by default :data:`~kinder_bench.protocol.DEVELOPMENT_SEED`: never the
-evaluation seeds 0–4, whose episodes fill the results table; the BP agent's defaults and the
-env's step limit) and, for the episodes where no plan is found, counts
-what the skill samples ran into: each :class:`~kinder_gym.skills.SkillFailure` by controller and
-message (numbers stripped, so messages that differ only in a coordinate count together), and the
-samples whose reached abstract state differed from the operator's prediction.
+seeds of ``--seed``, by default :data:`~kinder_bench.evaluation.protocol.DEVELOPMENT_SEED`: never
+the evaluation seeds 0–4, whose episodes fill the results table; the BP agent's defaults and the
+env's step limit) and, for the episodes where no plan is found, counts what the skill samples ran
+into: each :class:`~kinder_gym.skills.SkillFailure` by controller and message (numbers stripped, so
+messages that differ only in a coordinate count together), and the samples whose reached abstract
+state differed from the operator's prediction.
 
     uv run python benchmarks/bp_failure_causes.py kinder/DynObstruction2D-o1-v0 --episodes 50
 
@@ -23,8 +23,8 @@ from typing import Any
 import gymnasium
 
 from kinder_bench.baselines import bilevel_planning as bp
-from kinder_bench.protocol import DEVELOPMENT_SEED
-from kinder_bench.runner import episode_seeds
+from kinder_bench.evaluation.protocol import DEVELOPMENT_SEED
+from kinder_bench.evaluation.runner import episode_seeds
 from kinder_core import make_object_centric
 from kinder_gym import skills
 

@@ -23,8 +23,8 @@ import time
 from typing import Any
 
 from kinder_bench.baselines.bilevel_planning import BilevelPlanningArgs, plan_episode
-from kinder_bench.envs import default_max_steps
-from kinder_bench.protocol import DEVELOPMENT_SEED, PAPER_MAX_STEPS
+from kinder_bench.evaluation.envs import default_max_steps
+from kinder_bench.evaluation.protocol import DEVELOPMENT_SEED, PAPER_MAX_STEPS
 from kinder_core import make_object_centric
 
 

@@ -28,9 +28,9 @@ import json
 from pathlib import Path
 from typing import Any
 
-from kinder_bench.dataset_specs import DATASETS
-from kinder_bench.demo_collection import BUILD_LOG, kept_attempts, read_attempts
-from kinder_bench.results import load_records
+from kinder_bench.demos.collection import BUILD_LOG, kept_attempts, read_attempts
+from kinder_bench.demos.specs import DATASETS
+from kinder_bench.evaluation.results import load_records
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -143,7 +143,7 @@ def write_bench(base: Path, name: str, episodes: int) -> str:
     import tempfile
     import time
 
-    from kinder_bench.demo_collection import kept_files
+    from kinder_bench.demos.collection import kept_files
     from kinder_gym.demos.lerobot_format import DemoWriter
     from kinder_gym.demos.store import load_record
 

@@ -52,9 +52,9 @@ from kinder_bench.baselines.fm_planning.scripted_server import (
     oracle_answers,
     table_responder,
 )
-from kinder_bench.protocol import PAPER_ENVS
-from kinder_bench.results import write_json
-from kinder_bench.runner import RunConfig, run_benchmark
+from kinder_bench.evaluation.protocol import PAPER_ENVS
+from kinder_bench.evaluation.results import write_json
+from kinder_bench.evaluation.runner import RunConfig, run_benchmark
 from kinder_core import make_object_centric
 from kinder_gym.models import create_model
 

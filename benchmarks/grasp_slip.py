@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from kinder_bench.protocol import DEVELOPMENT_SEED
+from kinder_bench.evaluation.protocol import DEVELOPMENT_SEED
 from kinder_core import make_object_centric
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position

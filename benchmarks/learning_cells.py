@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def parse_args(method: str, argv: list[str] | None = None) -> argparse.Namespace:
-    from kinder_bench.protocol import PAPER_ENVS
+    from kinder_bench.evaluation.protocol import PAPER_ENVS
 
     diffusion = method in ("dp", "dpes")
     p = argparse.ArgumentParser(description=f"Train and evaluate {method.upper()} (see {__file__})")
@@ -52,7 +52,7 @@ def parse_args(method: str, argv: list[str] | None = None) -> argparse.Namespace
 
 
 def dataset_dir(datasets: Path, env_id: str) -> Path:
-    from kinder_bench.envs import short_id
+    from kinder_bench.evaluation.envs import short_id
 
     return datasets / short_id(env_id) / "data" / "lerobot"
 
@@ -73,10 +73,10 @@ def main(method: str, argv: list[str] | None = None) -> int:
 
     from kinder_bench.baselines.demo_data import read_dataset_spec
     from kinder_bench.cli.common import parse_seeds
-    from kinder_bench.envs import resolve_env_id, short_id
-    from kinder_bench.report import write_report
-    from kinder_bench.results import write_json
-    from kinder_bench.runner import RunConfig, run_benchmark
+    from kinder_bench.evaluation.envs import resolve_env_id, short_id
+    from kinder_bench.evaluation.results import write_json
+    from kinder_bench.evaluation.runner import RunConfig, run_benchmark
+    from kinder_bench.reporting.report import write_report
 
     os.environ.setdefault("HF_HUB_OFFLINE", "1")
     args = parse_args(method, argv)

@@ -38,7 +38,7 @@ def _latency(
     agent_name: str, env_id: str, agent_args: dict[str, object], steps: int
 ) -> list[float]:
     from kinder_bench.agents import make_agent
-    from kinder_bench.envs import make_env
+    from kinder_bench.evaluation.envs import make_env
 
     env = make_env(env_id)
     agent = make_agent(agent_name, env, agent_args, seed=0)

@@ -32,10 +32,10 @@ import numpy as np
 
 from kinder_bench.agents import make_agent
 from kinder_bench.baselines.mpc import MPCAgent
-from kinder_bench.envs import make_env, resolve_env_id, short_id
-from kinder_bench.paper import paper_settings
-from kinder_bench.protocol import PAPER_MAX_STEPS
-from kinder_bench.runner import agent_seed, episode_seeds
+from kinder_bench.evaluation.envs import make_env, resolve_env_id, short_id
+from kinder_bench.evaluation.protocol import PAPER_MAX_STEPS
+from kinder_bench.evaluation.runner import agent_seed, episode_seeds
+from kinder_bench.reporting.paper import paper_settings
 
 PAPER_RESULTS = (
     Path(__file__).resolve().parents[1]

@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from kinder_bench.envs import make_env, resolve_env_id
+from kinder_bench.evaluation.envs import make_env, resolve_env_id
 
 
 def main() -> None:

@@ -2,9 +2,9 @@
 
 A planner-free check of the skills (no search, no time budget, so machine load does not change
 it), for comparing physics settings or skill constants. For each env reset seed (development
-seeds, :data:`~kinder_bench.protocol.DEVELOPMENT_SEED` on by default, so that no skill is tuned on
-an instance the evaluation uses) the operators run in a fixed order, each with up to 3 parameter
-samples from its own sampler:
+seeds, :data:`~kinder_bench.evaluation.protocol.DEVELOPMENT_SEED` on by default, so that no skill is
+tuned on an instance the evaluation uses) the operators run in a fixed order, each with up to 3
+parameter samples from its own sampler:
 
 * ``shelf``: Pick then Place of every cube in turn (Shelf3D-oN); a step counts when the
   abstract state afterwards equals the operator's prediction.
@@ -56,8 +56,8 @@ from typing import Any
 import numpy as np
 
 from kinder_bench.baselines.bilevel_planning import abstract_match
-from kinder_bench.protocol import DEVELOPMENT_SEED
-from kinder_bench.results import write_json
+from kinder_bench.evaluation.protocol import DEVELOPMENT_SEED
+from kinder_bench.evaluation.results import write_json
 from kinder_core import ObjectCentricState, make_object_centric
 from kinder_gym.models import create_model
 from kinder_gym.skills import SkillFailure, execute_skill

@@ -4,8 +4,8 @@ Every ``benchmarks/results/*_summary.csv`` (with a ``command`` column) becomes a
 them fill the paper's Table II layout beside the paper's figures under one rule: a cell holds a
 run at the paper's protocol, every other run is a labelled variant row, ``n/r`` says why and
 how to run it; the page opens with the count of the paper's cells in each state and ends with
-the baselines' deviations from the paper (:mod:`kinder_bench.results_doc`). ``--check`` fails
-when docs/results.md is out of date.
+the baselines' deviations from the paper (:mod:`kinder_bench.reporting.results_doc`). ``--check``
+fails when docs/results.md is out of date.
 
 Usage:
     python tools/gen_results_doc.py            # write docs/results.md (= make results-doc)
@@ -18,8 +18,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from kinder_bench.results import write_text
-from kinder_bench.results_doc import results_markdown, summary_files
+from kinder_bench.evaluation.results import write_text
+from kinder_bench.reporting.results_doc import results_markdown, summary_files
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"

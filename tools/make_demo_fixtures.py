@@ -15,7 +15,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from kinder_bench.demo_collection import CollectConfig, build_dataset, collect
+from kinder_bench.demos.collection import CollectConfig, build_dataset, collect
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "packages" / "kinder-gym" / "tests" / "data" / "demos"

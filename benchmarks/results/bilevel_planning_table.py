@@ -15,7 +15,7 @@ import csv
 import json
 from pathlib import Path
 
-from kinder_bench.paper import load_paper
+from kinder_bench.reporting.paper import load_paper
 
 
 def _paper_bp() -> dict[str, tuple[float, str | None]]:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from kinder_bench_toy import TOY_ID
 
-from kinder_bench.envs import make_env
+from kinder_bench.evaluation.envs import make_env
 
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 

@@ -156,7 +156,7 @@ class InterruptingAgent(Agent[NoArgs]):
 
 
 def _third_seed() -> int:
-    from kinder_bench.runner import episode_seeds
+    from kinder_bench.evaluation.runner import episode_seeds
 
     return episode_seeds(0, 3)[2]
 

@@ -19,7 +19,7 @@ from kinder_bench.agents import (
 )
 from kinder_bench.baselines.mpc import MPCAgent, MPCArgs, interpolation_matrix
 from kinder_bench.baselines.random_agent import RandomAgent
-from kinder_bench.envs import make_env
+from kinder_bench.evaluation.envs import make_env
 
 
 def _episode(env_id: str, agent_name: str, args: dict, seed: int, steps: int) -> list[np.ndarray]:

@@ -13,7 +13,7 @@ import kinder_core
 from kinder_bench.cli import app
 from kinder_bench.cli.common import parse_seeds
 from kinder_bench.demo import DemoEnv, run_demo
-from kinder_bench.results import load_records
+from kinder_bench.evaluation.results import load_records
 
 runner = CliRunner()
 REAL_ENV = "kinder/Motion2D-p0-v0"

@@ -10,9 +10,9 @@ from typing import Any
 
 import pytest
 
-from kinder_bench.metrics import Stat, aggregate, seed_metrics, summarize
-from kinder_bench.report import markdown_table, write_report
-from kinder_bench.summary import csv_table
+from kinder_bench.evaluation.metrics import Stat, aggregate, seed_metrics, summarize
+from kinder_bench.evaluation.summary import csv_table
+from kinder_bench.reporting.report import markdown_table, write_report
 
 
 def _rec(

@@ -15,8 +15,10 @@ from typer.testing import CliRunner
 
 from kinder_bench.agents import AGENTS, agent_class, unavailable_reason
 from kinder_bench.cli import app
-from kinder_bench.metrics import Stat
-from kinder_bench.paper import (
+from kinder_bench.evaluation.metrics import Stat
+from kinder_bench.evaluation.protocol import PAPER_ENVS, PAPER_MAX_STEPS, PAPER_SEEDS
+from kinder_bench.evaluation.runner import RunConfig, run_benchmark
+from kinder_bench.reporting.paper import (
     METRICS,
     NOT_IN_RUNS,
     NOT_RUN,
@@ -38,9 +40,7 @@ from kinder_bench.paper import (
     results_from_csv,
     variant_name,
 )
-from kinder_bench.protocol import PAPER_ENVS, PAPER_MAX_STEPS, PAPER_SEEDS
-from kinder_bench.report import write_report
-from kinder_bench.runner import RunConfig, run_benchmark
+from kinder_bench.reporting.report import write_report
 
 MOTION = "kinder/Motion2D-p0-v0"
 PAPER_METHODS = [
@@ -466,7 +466,7 @@ REPO = Path(__file__).resolve().parents[3]
 
 
 def test_results_doc_is_current_and_every_row_has_its_command(tmp_path: Path) -> None:
-    from kinder_bench.results_doc import results_markdown, summary_files
+    from kinder_bench.reporting.results_doc import results_markdown, summary_files
 
     files = summary_files(REPO / "benchmarks" / "results")
     page = REPO / "docs" / "results.md"

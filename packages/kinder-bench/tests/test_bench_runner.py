@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from kinder_bench_toy import CRASH_THINK
 
-from kinder_bench.results import CONFIG_FILE, RESULTS_FILE, append_record, load_records
-from kinder_bench.runner import (
+from kinder_bench.evaluation.results import CONFIG_FILE, RESULTS_FILE, append_record, load_records
+from kinder_bench.evaluation.runner import (
     TIMING_FIELDS,
     RunConfig,
     agent_seed,
@@ -233,8 +233,8 @@ def test_append_record_writes_whole_lines(tmp_path: Path) -> None:
 
 
 def test_default_step_budget_follows_the_paper(toy_id: str) -> None:
-    from kinder_bench.envs import default_max_steps
-    from kinder_bench.runner import resolve_run
+    from kinder_bench.evaluation.envs import default_max_steps
+    from kinder_bench.evaluation.runner import resolve_run
 
     assert resolve_run(RunConfig("Motion2D-p0")).max_steps == 200  # the paper's budget
     registered = default_max_steps("kinder/Motion2D-p1-v0")

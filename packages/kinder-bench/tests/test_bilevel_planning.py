@@ -134,7 +134,7 @@ def test_step_budget_rejects_plans_that_would_time_out() -> None:
 
 
 def test_agent_plans_within_the_episode_steps_left() -> None:
-    from kinder_bench.envs import make_env
+    from kinder_bench.evaluation.envs import make_env
 
     env = make_env("kinder/StickButton2D-b1-v0", max_steps=500)
     agent = make_agent(AGENT, env, {}, seed=1)
@@ -267,7 +267,7 @@ def test_solves_small_seeded_instances(env_id: str, seeds: Sequence[int]) -> Non
 
 
 def test_agent_runs_a_registered_episode() -> None:
-    from kinder_bench.envs import make_env
+    from kinder_bench.evaluation.envs import make_env
 
     env = make_env("kinder/StickButton2D-b1-v0")
     agent = make_agent(AGENT, env, {}, seed=1)

@@ -14,8 +14,8 @@ from typer.testing import CliRunner
 from kinder_bench.baselines.mbrl import DeltaModel, save_delta_model
 from kinder_bench.campaign import load_campaign, parse_campaign, run_campaign, train_command
 from kinder_bench.cli import app
-from kinder_bench.envs import make_env
-from kinder_bench.protocol import PAPER_ENVS
+from kinder_bench.evaluation.envs import make_env
+from kinder_bench.evaluation.protocol import PAPER_ENVS
 
 ROOT = Path(__file__).resolve().parents[3]
 

@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 import kinder_core
 from kinder_bench.agents import make_agent
 from kinder_bench.cli import app
-from kinder_bench.demo_collection import (
+from kinder_bench.demos.collection import (
     ATTEMPTS_FILE,
     CollectConfig,
     build_dataset,
@@ -178,8 +178,8 @@ def test_collect_from_mpc_and_scripted_agents(
 
 
 def test_dataset_instances_are_apart_from_evaluation_instances() -> None:
-    from kinder_bench.dataset_specs import DATASETS
-    from kinder_bench.demo_collection import evaluation_overlap, resolve_collect
+    from kinder_bench.demos.collection import evaluation_overlap, resolve_collect
+    from kinder_bench.demos.specs import DATASETS
 
     for spec in DATASETS.values():
         attempts = resolve_collect(spec.collect_config()).max_attempts

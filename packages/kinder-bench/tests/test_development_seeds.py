@@ -1,6 +1,6 @@
 """Development seeds: every tool that analyses failures, tunes skills, measures step needs or
-collects data defaults to seeds from :data:`~kinder_bench.protocol.DEVELOPMENT_SEED` on, never
-to the evaluation seeds whose episodes fill the results table."""
+collects data defaults to seeds from :data:`~kinder_bench.evaluation.protocol.DEVELOPMENT_SEED` on,
+never to the evaluation seeds whose episodes fill the results table."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from kinder_bench.baselines.fm_planning.prompts import EXAMPLE_SEED_BASE
-from kinder_bench.demo_collection import COLLECTION_SEED, CollectConfig, evaluation_overlap
-from kinder_bench.protocol import DEVELOPMENT_SEED, PAPER_SEEDS
+from kinder_bench.demos.collection import COLLECTION_SEED, CollectConfig, evaluation_overlap
+from kinder_bench.evaluation.protocol import DEVELOPMENT_SEED, PAPER_SEEDS
 
 BENCHMARKS = Path(__file__).resolve().parents[3] / "benchmarks"
 #: The development tools and their seed options (``benchmarks/*.py``).

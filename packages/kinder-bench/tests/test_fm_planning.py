@@ -38,8 +38,8 @@ from kinder_bench.baselines.fm_planning.scripted_server import (
     table_responder,
 )
 from kinder_bench.baselines.random_agent import RandomAgent
-from kinder_bench.protocol import PAPER_ENVS
-from kinder_bench.runner import TIMING_FIELDS, RunConfig, episode_seeds, run_benchmark
+from kinder_bench.evaluation.protocol import PAPER_ENVS
+from kinder_bench.evaluation.runner import TIMING_FIELDS, RunConfig, episode_seeds, run_benchmark
 from kinder_core import make_object_centric
 from kinder_core.wrappers import BoxObservation
 from kinder_gym.models import create_model
@@ -364,7 +364,7 @@ def test_vlm_agents_send_the_rendered_initial_state(tmp_path: Path) -> None:
 
     with ChatServer(lambda _: "Plan:\n") as server:
         env_id = "kinder/Motion2D-p0-v0"
-        from kinder_bench.envs import make_env
+        from kinder_bench.evaluation.envs import make_env
 
         env = make_env(env_id)
         agent = make_agent(
@@ -481,7 +481,7 @@ def test_cache_only_miss_is_a_recorded_failure(tmp_path: Path) -> None:
 
 
 def test_skill_env_runs_bilevel_plans_on_a_registered_box_env() -> None:
-    from kinder_bench.envs import make_env
+    from kinder_bench.evaluation.envs import make_env
     from kinder_gym.skill_env import SkillEnv, run_plan
 
     env_id = "kinder/StickButton2D-b1-v0"

@@ -36,8 +36,8 @@ from kinder_bench.baselines.gsc.model import GSCModel
 from kinder_bench.baselines.gsc.sampler import ChainStep, sample_chain
 from kinder_bench.baselines.gsc.train import GSCTrainConfig, load_demonstrations, train_gsc
 from kinder_bench.cli import app
-from kinder_bench.demo_collection import CollectConfig, collect
-from kinder_bench.runner import RunConfig, run_benchmark
+from kinder_bench.demos.collection import CollectConfig, collect
+from kinder_bench.evaluation.runner import RunConfig, run_benchmark
 from kinder_core import make, make_object_centric
 
 ENV = "kinder/StickButton2D-b1-v0"

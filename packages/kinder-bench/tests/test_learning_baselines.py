@@ -32,8 +32,8 @@ from kinder_bench.baselines.diffusion import (
 from kinder_bench.baselines.mbrl import MBRLTrainArgs, load_delta_model, train_mbrl
 from kinder_bench.baselines.ood import run_ood
 from kinder_bench.cli import app
-from kinder_bench.envs import make_env
-from kinder_bench.runner import RunConfig, run_benchmark
+from kinder_bench.evaluation.envs import make_env
+from kinder_bench.evaluation.runner import RunConfig, run_benchmark
 
 FIXTURE = Path(__file__).parents[2] / "kinder-gym" / "tests" / "data" / "demos" / "Motion2D-p0"
 MOTION = "kinder/Motion2D-p0-v0"

@@ -18,7 +18,7 @@ from kinder_bench.baselines.mbrl import (
     MBRLArgs,
     save_delta_model,
 )
-from kinder_bench.envs import make_env
+from kinder_bench.evaluation.envs import make_env
 
 
 def _random_delta_model(

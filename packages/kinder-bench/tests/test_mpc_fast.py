@@ -17,7 +17,7 @@ from kinder_bench.baselines.mpc import (
     lockstep_costs,
     plain_cost,
 )
-from kinder_bench.envs import make_env
+from kinder_bench.evaluation.envs import make_env
 from kinder_core import ObjectCentricState
 
 

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 
 from kinder_bench.agents import agent_class
-from kinder_bench.metrics import Stat
-from kinder_bench.paper import Result, results_from_csv
-from kinder_bench.results_doc import (
+from kinder_bench.evaluation.metrics import Stat
+from kinder_bench.reporting.paper import Result, results_from_csv
+from kinder_bench.reporting.results_doc import (
     attribution_markdown,
     heldout_markdown,
     summary_files,

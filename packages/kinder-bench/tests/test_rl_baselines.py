@@ -22,9 +22,9 @@ from kinder_bench.baselines.rl.agents import check_compatible
 from kinder_bench.baselines.rl.checkpoints import list_checkpoints, read_meta
 from kinder_bench.baselines.rl.envs import make_rl_env
 from kinder_bench.baselines.rl.train import PPOArgs, SACArgs, make_train_args, train
-from kinder_bench.envs import make_env
-from kinder_bench.metrics import aggregate
-from kinder_bench.runner import RunConfig, run_benchmark, with_run_seed
+from kinder_bench.evaluation.envs import make_env
+from kinder_bench.evaluation.metrics import aggregate
+from kinder_bench.evaluation.runner import RunConfig, run_benchmark, with_run_seed
 
 MOTION = "kinder/Motion2D-p0-v0"
 IMPORTS = ("kinder_bench_toy",)

@@ -22,10 +22,10 @@ from typer.testing import CliRunner
 from kinder_bench.agents import make_agent
 from kinder_bench.baselines.diffusion import DiffusionTrainArgs, train_diffusion
 from kinder_bench.cli import app
-from kinder_bench.envs import make_env
+from kinder_bench.evaluation.envs import make_env
+from kinder_bench.evaluation.runner import RunConfig, run_benchmark
 from kinder_bench.policy_server.agent_policy import AgentService
 from kinder_bench.policy_server.client import PolicyClient, PolicyServerError
-from kinder_bench.runner import RunConfig, run_benchmark
 
 FIXTURE = Path(__file__).parents[2] / "kinder-gym" / "tests" / "data" / "demos" / "Motion2D-p0"
 MOTION = "kinder/Motion2D-p0-v0"

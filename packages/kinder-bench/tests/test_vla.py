@@ -13,11 +13,11 @@ import pytest
 
 import kinder_core
 from kinder_bench.baselines.vla import VLAAgent, VLAArgs
+from kinder_bench.evaluation.runner import RunConfig, episode_seeds, run_benchmark
 from kinder_bench.policy_server import wire
 from kinder_bench.policy_server.client import PolicyClient, PolicyServerError
 from kinder_bench.policy_server.replay import ReplayPolicy
 from kinder_bench.policy_server.server import PolicyServer
-from kinder_bench.runner import RunConfig, episode_seeds, run_benchmark
 
 MOTION = "kinder/Motion2D-p0-v0"
 

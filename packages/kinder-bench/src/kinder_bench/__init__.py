@@ -6,11 +6,11 @@ Where things are, top to bottom of the import layers (``[tool.importlinter]`` in
 * ``cli/``: the ``kinder`` command, one module per command group over ``cli/common.py``;
 * ``demo.py`` (the showcase run) and ``campaign.py`` (experiment campaigns);
 * ``baselines/``: every baseline, random and MPC included;
-* reporting (``report.py``, ``paper.py``, ``html_report.py``, ``results_doc.py``),
-  demonstrations (``demo_collection.py``, ``dataset_specs.py``, ``dataset_cards.py``) and
-  ``policy_server/``, none of which imports another;
-* evaluation: ``runner.py``, ``executors.py``, ``recording.py``, ``protocol.py``,
-  ``metrics.py``, ``results.py``, ``summary.py``, ``envs.py``;
+* three wings that do not import each other: ``reporting/`` (results tables, the paper
+  comparison, the HTML report, ``docs/results.md``), ``demos/`` (demonstration collection, the
+  datasets' specs and cards) and ``policy_server/``;
+* ``evaluation/``: the runner, its executors, results files, metrics, ``summary.csv``, the paper's
+  protocol, env lookup and videos;
 * ``agents/`` (the interface the runner drives and the registry) and ``training/`` (the
   trainers' checkpoints and CSV logs).
 
@@ -31,10 +31,9 @@ from kinder_bench.agents import (
 )
 from kinder_bench.baselines.mpc import MPCAgent, MPCArgs
 from kinder_bench.baselines.random_agent import RandomAgent
-from kinder_bench.metrics import Stat, Summary, aggregate, summarize
-from kinder_bench.report import markdown_table, write_report
-from kinder_bench.results import load_records
-from kinder_bench.runner import (
+from kinder_bench.evaluation.metrics import Stat, Summary, aggregate, summarize
+from kinder_bench.evaluation.results import load_records
+from kinder_bench.evaluation.runner import (
     BenchOutcome,
     EpisodeTask,
     RunConfig,
@@ -42,7 +41,8 @@ from kinder_bench.runner import (
     run_benchmark,
     run_episode,
 )
-from kinder_bench.summary import csv_table
+from kinder_bench.evaluation.summary import csv_table
+from kinder_bench.reporting.report import markdown_table, write_report
 
 __version__ = "0.1.0"
 

@@ -35,8 +35,8 @@ and, with ``per_seed``, ``{seed}``. A cell's models go to ``OUT/train/<cell>/<en
 ``kinder train <method> --out DIR --<key> <value> ...`` trains them (a trainer resumes from its
 last checkpoint). A finished training writes ``campaign_train.json`` beside its checkpoints and
 is skipped on the next call unless its command changed. Then every cell's episodes go to one
-runner call (:func:`~kinder_bench.runner.run_benchmark`) into ``OUT/eval``, over the chosen
-executor (``inline``, ``process`` or ``ray``, with a cluster ``address``): the runner skips
+runner call (:func:`~kinder_bench.evaluation.runner.run_benchmark`) into ``OUT/eval``, over the
+chosen executor (``inline``, ``process`` or ``ray``, with a cluster ``address``): the runner skips
 episodes already in ``results.jsonl`` and writes ``summary.csv``. ``OUT/campaign.json`` records
 every cell: its run arguments, training commands and budget, and episodes done out of planned.
 
@@ -56,11 +56,11 @@ from pathlib import Path
 from typing import Any
 
 from kinder_bench.agents import Agent, agent_class, make_args, parse_value
-from kinder_bench.envs import resolve_env_id, short_id
-from kinder_bench.paper import paper_settings
-from kinder_bench.protocol import PAPER_ENVS
-from kinder_bench.results import load_records, write_json
-from kinder_bench.runner import RunConfig, resolve_run, run_benchmark
+from kinder_bench.evaluation.envs import resolve_env_id, short_id
+from kinder_bench.evaluation.protocol import PAPER_ENVS
+from kinder_bench.evaluation.results import load_records, write_json
+from kinder_bench.evaluation.runner import RunConfig, resolve_run, run_benchmark
+from kinder_bench.reporting.paper import paper_settings
 
 TRAIN_MARKER = "campaign_train.json"
 STATUS_FILE = "campaign.json"
@@ -258,7 +258,7 @@ def parse_campaign(data: Mapping[str, Any], source: str = "campaign") -> Campaig
         raise ValueError(f"{source}: expected at least one [[cells]] entry")
     imports = tuple(head.get("imports", ()))
     if imports:
-        from kinder_bench.runner import import_modules
+        from kinder_bench.evaluation.runner import import_modules
 
         import_modules(imports)
     cells: list[Cell] = []

@@ -26,8 +26,8 @@ from pathlib import Path
 from typing import Any
 
 import kinder_core
-from kinder_bench.report import write_report
-from kinder_bench.runner import RunConfig, run_benchmark
+from kinder_bench.evaluation.runner import RunConfig, run_benchmark
+from kinder_bench.reporting.report import write_report
 
 
 @dataclasses.dataclass(frozen=True)

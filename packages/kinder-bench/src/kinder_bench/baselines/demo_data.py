@@ -98,7 +98,7 @@ def read_dataset_spec(root: Path | str) -> DatasetSpec:
 
 def resolve_dataset_env(spec: DatasetSpec, env_id: str | None) -> str:
     """The env id to train for: the dataset's; ``env_id``, when given, must name the same env."""
-    from kinder_bench.envs import resolve_env_id
+    from kinder_bench.evaluation.envs import resolve_env_id
 
     own = resolve_env_id(spec.env_id)
     if env_id is not None and resolve_env_id(env_id) != own:

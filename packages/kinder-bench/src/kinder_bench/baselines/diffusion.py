@@ -60,7 +60,7 @@ from kinder_bench.baselines.demo_data import (
     read_dataset_spec,
     resolve_dataset_env,
 )
-from kinder_bench.results import package_versions, write_json
+from kinder_bench.evaluation.results import package_versions, write_json
 from kinder_bench.training.checkpoints import (
     MARKER,
     check_resume_config,

@@ -63,7 +63,7 @@ from kinder_bench.baselines.mpc import (
     batched_world_of,
     lockstep_costs,
 )
-from kinder_bench.results import package_versions, write_json
+from kinder_bench.evaluation.results import package_versions, write_json
 from kinder_bench.training.checkpoints import (
     MARKER,
     check_resume_config,

@@ -55,7 +55,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from kinder_bench.agents.base import Agent
-from kinder_bench.executors import available_cpus
+from kinder_bench.evaluation.executors import available_cpus
 from kinder_core import ObjectCentricEnv, ObjectCentricState
 
 FloatArray = NDArray[np.float64]

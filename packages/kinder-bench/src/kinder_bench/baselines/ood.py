@@ -13,8 +13,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from kinder_bench.report import write_report
-from kinder_bench.runner import RunConfig, run_benchmark
+from kinder_bench.evaluation.runner import RunConfig, run_benchmark
+from kinder_bench.reporting.report import write_report
 from kinder_bench.training.checkpoints import find_checkpoint
 
 TRAIN_ENV = "kinder/DynObstruction2D-o1-v0"

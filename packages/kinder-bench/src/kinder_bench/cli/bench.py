@@ -17,9 +17,9 @@ from kinder_bench.cli.common import (
     parse_seeds,
     user_errors,
 )
-from kinder_bench.envs import short_id
-from kinder_bench.executors import EXECUTORS
-from kinder_bench.recording import VIDEO_FORMATS
+from kinder_bench.evaluation.envs import short_id
+from kinder_bench.evaluation.executors import EXECUTORS
+from kinder_bench.evaluation.recording import VIDEO_FORMATS
 
 bench_app = typer.Typer(help="Run benchmarks and report their results.", no_args_is_help=True)
 
@@ -98,7 +98,7 @@ def bench_run(
     """Run every agent on every env over the seeds (resuming what the run directory has).
 
     With ``--suite paper`` the report at the end is the paper comparison (Table II's layout)."""
-    from kinder_bench.runner import RunConfig, run_benchmark
+    from kinder_bench.evaluation.runner import RunConfig, run_benchmark
 
     mods = load_imports(imports)
     envs_ = list(env or []) + _suite_envs(suite)
@@ -142,7 +142,7 @@ def _runnable(
     pairs whose agent cannot run here are skipped with their reason when they came from ``all``,
     and are an error when the agent was named."""
     from kinder_bench.agents import unavailable_reason
-    from kinder_bench.envs import resolve_env_id
+    from kinder_bench.evaluation.envs import resolve_env_id
 
     named = [a for a in agents_ if a != "all"]
     expanded = list(dict.fromkeys(named + (list(AGENTS) if "all" in agents_ else [])))
@@ -179,8 +179,8 @@ def _suite_envs(suite: str | None) -> list[str]:
         return []
     if suite != "paper":
         fail(f"--suite {suite!r}: the only suite is 'paper'")
-    from kinder_bench.envs import known_env_ids
-    from kinder_bench.protocol import PAPER_ENVS
+    from kinder_bench.evaluation.envs import known_env_ids
+    from kinder_bench.evaluation.protocol import PAPER_ENVS
 
     known = set(known_env_ids())
     missing = [e for e in PAPER_ENVS if e not in known]
@@ -192,7 +192,7 @@ def _suite_envs(suite: str | None) -> list[str]:
 def _report(
     run_dirs: list[Path], out: Path | None, plot: bool, paper: bool = False, html: bool = False
 ) -> None:
-    from kinder_bench.report import write_report
+    from kinder_bench.reporting.report import write_report
 
     with user_errors():
         md, paths = write_report(run_dirs, out, plot=plot, paper=paper, html=html)

@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from kinder_bench.cli.common import fail, user_errors
-from kinder_bench.executors import EXECUTORS
+from kinder_bench.evaluation.executors import EXECUTORS
 
 
 def campaign_cmd(
@@ -73,7 +73,7 @@ def campaign_cmd(
         err=True,
     )
     if report and outcome.episodes_ran + outcome.episodes_skipped:
-        from kinder_bench.report import write_report
+        from kinder_bench.reporting.report import write_report
 
         with user_errors():
             md, _ = write_report([root / "eval"], plot=False, paper=True)

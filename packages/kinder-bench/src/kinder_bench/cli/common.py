@@ -51,7 +51,7 @@ def user_errors() -> Iterator[None]:
 def load_imports(modules: list[str] | None) -> tuple[str, ...]:
     """Import the ``--import`` modules here (a bad name is a user error); returns them for the
     runner's workers to import too."""
-    from kinder_bench.runner import import_modules
+    from kinder_bench.evaluation.runner import import_modules
 
     mods = tuple(modules or ())
     with user_errors():

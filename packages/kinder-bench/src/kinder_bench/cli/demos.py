@@ -72,7 +72,7 @@ def collect_cmd(
     imports: ImportOpt = None,
 ) -> None:
     """Collect successful demonstrations of one env (resumable), then build the dataset."""
-    from kinder_bench.demo_collection import (
+    from kinder_bench.demos.collection import (
         CollectConfig,
         build_dataset,
         collect,
@@ -120,7 +120,7 @@ def build_cmd(
     progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
 ) -> None:
     """Build (or finish building) the LeRobot dataset of a collection."""
-    from kinder_bench.demo_collection import build_dataset
+    from kinder_bench.demos.collection import build_dataset
 
     with user_errors():
         n = build_dataset(collection, dataset, images=images, progress=progress)
@@ -198,7 +198,7 @@ def show_cmd(
     import numpy as np
 
     import kinder_core
-    from kinder_bench.recording import write_video
+    from kinder_bench.evaluation.recording import write_video
     from kinder_gym.demos.layout import (
         camera_frames,
         camera_names,
@@ -246,7 +246,7 @@ def convert_cmd(
 ) -> None:
     """Convert between demonstration formats."""
     import kinder_core
-    from kinder_bench.envs import resolve_env_id
+    from kinder_bench.evaluation.envs import resolve_env_id
     from kinder_gym.demos.layout import StateSplit
     from kinder_gym.demos.lerobot_format import DemoWriter, load_records
     from kinder_gym.demos.store import load_record
@@ -303,9 +303,9 @@ def datasets_cmd(
     progress: Annotated[bool, typer.Option(help="Show progress bars.")] = True,
 ) -> None:
     """The project's datasets (``make datasets``): collect, build and describe each one."""
-    from kinder_bench.dataset_cards import write_card
-    from kinder_bench.dataset_specs import DATASETS, dataset_spec
-    from kinder_bench.demo_collection import build_dataset, collect
+    from kinder_bench.demos.cards import write_card
+    from kinder_bench.demos.collection import build_dataset, collect
+    from kinder_bench.demos.specs import DATASETS, dataset_spec
 
     with user_errors():
         specs = [dataset_spec(n) for n in names] if names else list(DATASETS.values())

@@ -17,7 +17,7 @@ from kinder_bench.cli.common import (
     parse_agent_args,
     user_errors,
 )
-from kinder_bench.envs import short_id
+from kinder_bench.evaluation.envs import short_id
 
 
 def envs(
@@ -30,7 +30,7 @@ def envs(
     """List the registered environment ids (of the installed packages)."""
     import gymnasium
 
-    from kinder_bench.envs import known_env_ids
+    from kinder_bench.evaluation.envs import known_env_ids
 
     load_imports(imports)
     with user_errors():
@@ -53,7 +53,7 @@ def agents() -> None:
     """List the agents, their arguments (defaults and meaning) and, where an agent cannot run on
     the paper's envs here with its defaults, why."""
     from kinder_bench.agents import unavailable_reason
-    from kinder_bench.protocol import PAPER_ENVS
+    from kinder_bench.evaluation.protocol import PAPER_ENVS
 
     for name in AGENTS:
         try:
@@ -83,7 +83,7 @@ def show(
     imports: ImportOpt = None,
 ) -> None:
     """Describe an environment and print a seeded initial state (optionally save its image)."""
-    from kinder_bench.envs import default_max_steps, make_env, resolve_env_id
+    from kinder_bench.evaluation.envs import default_max_steps, make_env, resolve_env_id
 
     load_imports(imports)
     with user_errors():
@@ -122,7 +122,7 @@ def rollout(
     imports: ImportOpt = None,
 ) -> None:
     """Run one episode of an agent and print its result."""
-    from kinder_bench.runner import RunConfig, make_tasks, resolve_run, run_episode
+    from kinder_bench.evaluation.runner import RunConfig, make_tasks, resolve_run, run_episode
 
     mods = load_imports(imports)
     agent_args = parse_agent_args(args, [agent])[agent]

@@ -45,7 +45,7 @@ def teleop_cmd(
     ] = False,
 ) -> None:
     """Teleoperate an environment and record demonstrations."""
-    from kinder_bench.envs import resolve_env_id, short_id
+    from kinder_bench.evaluation.envs import resolve_env_id, short_id
 
     with user_errors():
         full = resolve_env_id(env_id)

@@ -77,7 +77,7 @@ class AgentService:
         busy_timeout: float = 5.0,
     ) -> None:
         from kinder_bench.agents import agent_class, make_args
-        from kinder_bench.envs import make_env, resolve_env_id
+        from kinder_bench.evaluation.envs import make_env, resolve_env_id
 
         self.agent = agent
         self.env_id = resolve_env_id(env_id)

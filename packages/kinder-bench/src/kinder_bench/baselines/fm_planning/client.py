@@ -31,7 +31,7 @@ import time
 from pathlib import Path
 from typing import Any, Literal
 
-from kinder_bench.results import write_json
+from kinder_bench.evaluation.results import write_json
 
 CacheMode = Literal["use", "only", "off"]
 CACHE_MODES: tuple[str, ...] = ("use", "only", "off")

@@ -253,7 +253,7 @@ def estimate_tokens(text: str) -> int:
 @functools.cache
 def evaluation_env_seeds(run_seeds: int = 10, episodes: int = 1000) -> frozenset[int]:
     """Every env seed the runner uses for run seeds ``0..run_seeds-1`` × ``episodes``."""
-    from kinder_bench.runner import episode_seeds
+    from kinder_bench.evaluation.runner import episode_seeds
 
     return frozenset(s for seed in range(run_seeds) for s in episode_seeds(seed, episodes))
 
@@ -332,7 +332,7 @@ def make_examples(
     ``max_tries`` (default ``3·num``) candidate seeds."""
     if num <= 0:
         return []
-    from kinder_bench.results import package_versions
+    from kinder_bench.evaluation.results import package_versions
 
     tries = max_tries if max_tries is not None else 3 * num
     versions = package_versions()
@@ -359,7 +359,7 @@ def make_examples(
             if len(examples) == num:
                 break
     if path is not None:
-        from kinder_bench.results import write_json
+        from kinder_bench.evaluation.results import write_json
 
         path.parent.mkdir(parents=True, exist_ok=True)
         write_json(path, [dataclasses.asdict(e) for e in examples])

@@ -129,7 +129,7 @@ def oracle_answers(env_id: str, run_seed: int, episodes: int) -> dict[str, str]:
     ``run_seed`` (episodes where BP finds no plan get an answer with an empty plan)."""
     from kinder_bench.baselines.bilevel_planning import plan_episode
     from kinder_bench.baselines.fm_planning.prompts import format_call, format_state, plan_calls
-    from kinder_bench.runner import agent_seed, episode_seeds
+    from kinder_bench.evaluation.runner import agent_seed, episode_seeds
     from kinder_core import make_object_centric
 
     env = make_object_centric(env_id)

@@ -2,7 +2,7 @@
 
 The source is any skill-labelled :class:`~kinder_gym.demos.record.EpisodeRecord` s: a LeRobot
 dataset (``kinder_gym.demos.lerobot_format.load_records``), a demo collection
-(:mod:`kinder_bench.demo_collection`, whose bilevel-planner episodes label each plan step, a
+(:mod:`kinder_bench.demos.collection`, whose bilevel-planner episodes label each plan step, a
 ground skill and its parameters, with a :class:`~kinder_gym.demos.record.SkillLabel`), or records
 built in memory.
 

@@ -4,9 +4,9 @@ Stages, each resumable, all files under the output directory:
 
 1. ``demo_transitions.npz``: the skill transitions of the demonstrations: skill-labelled records
    from ``dataset`` (a LeRobot dataset written by ``kinder_gym.demos.lerobot_format``, or a demo
-   collection directory of :mod:`kinder_bench.demo_collection`), records given directly, or,
+   collection directory of :mod:`kinder_bench.demos.collection`), records given directly, or,
    without either, ``demo_episodes`` successful bilevel-planner episodes collected into
-   ``demos/`` (:func:`kinder_bench.demo_collection.collect`, collection seed ``demo_seed``,
+   ``demos/`` (:func:`kinder_bench.demos.collection.collect`, collection seed ``demo_seed``,
    resumable). The default ``demo_seed`` (1000) keeps the training instances apart from the
    evaluation's: the runner's seed ``s`` and a collection with seed ``s`` draw the same
    instances. Written once; reused on resume.
@@ -56,10 +56,10 @@ from kinder_bench.baselines.gsc.model import (
     atomic_torch_save,
     state_scaler,
 )
-from kinder_bench.demo_collection import CONFIG_FILE as COLLECT_CONFIG
-from kinder_bench.demo_collection import CollectConfig, collect, kept_files
-from kinder_bench.envs import resolve_env_id
-from kinder_bench.results import write_json
+from kinder_bench.demos.collection import CONFIG_FILE as COLLECT_CONFIG
+from kinder_bench.demos.collection import CollectConfig, collect, kept_files
+from kinder_bench.evaluation.envs import resolve_env_id
+from kinder_bench.evaluation.results import write_json
 from kinder_bench.training.csvlog import CsvLog
 from kinder_core import ObjectCentricEnv, make_object_centric
 from kinder_gym.demos.record import EpisodeRecord

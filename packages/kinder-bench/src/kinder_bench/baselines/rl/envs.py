@@ -26,7 +26,7 @@ from gymnasium import spaces
 from gymnasium.wrappers import RescaleAction
 from numpy.typing import NDArray
 
-from kinder_bench.envs import make_env, short_id
+from kinder_bench.evaluation.envs import make_env, short_id
 
 #: Reward settings: the env's own sparse reward, or the paper's BaseMotion3D shaping.
 REWARDS = ("sparse", "dense")

@@ -69,9 +69,9 @@ from kinder_bench.baselines.rl.checkpoints import (
     read_meta,
 )
 from kinder_bench.baselines.rl.envs import REWARDS, make_rl_env
-from kinder_bench.envs import default_max_steps, make_env, resolve_env_id, short_id
-from kinder_bench.protocol import PAPER_MAX_STEPS
-from kinder_bench.results import environment_info, write_json
+from kinder_bench.evaluation.envs import default_max_steps, make_env, resolve_env_id, short_id
+from kinder_bench.evaluation.protocol import PAPER_MAX_STEPS
+from kinder_bench.evaluation.results import environment_info, write_json
 from kinder_bench.training.csvlog import CsvLog
 
 Algo = Literal["ppo", "sac"]

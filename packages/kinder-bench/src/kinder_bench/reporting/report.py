@@ -6,10 +6,10 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from kinder_bench.envs import short_id
-from kinder_bench.metrics import Stat, Summary, aggregate
-from kinder_bench.results import load_config, load_records, write_text
-from kinder_bench.summary import CSV_FILE, csv_table, dedupe, run_commands, run_trainings
+from kinder_bench.evaluation.envs import short_id
+from kinder_bench.evaluation.metrics import Stat, Summary, aggregate
+from kinder_bench.evaluation.results import load_config, load_records, write_text
+from kinder_bench.evaluation.summary import CSV_FILE, csv_table, dedupe, run_commands, run_trainings
 
 TABLE_FILE = "table.md"
 PLOT_FILE = "success.png"
@@ -120,8 +120,8 @@ def write_report(
     """Aggregate run directories and write the report to ``out_dir`` (default: the first run
     directory): ``table.md``, ``summary.csv`` and (``plot``) ``success.png``; with ``paper`` the
     paper comparison ``paper_table.md`` and ``paper_comparison.csv``
-    (:mod:`kinder_bench.paper`); with ``html`` the self-contained ``report.html``
-    (:mod:`kinder_bench.html_report`, with the not-run paper cells when ``paper``).
+    (:mod:`kinder_bench.reporting.paper`); with ``html`` the self-contained ``report.html``
+    (:mod:`kinder_bench.reporting.html_report`, with the not-run paper cells when ``paper``).
 
     Returns the markdown (the paper comparison's when ``paper``, else the results table) and the
     paths written.
@@ -142,7 +142,12 @@ def write_report(
         paths["plot"] = plot_success(summaries, out / PLOT_FILE)
     comparison = None
     if paper or html:
-        from kinder_bench.paper import compare, paper_csv, paper_markdown, results_from_summaries
+        from kinder_bench.reporting.paper import (
+            compare,
+            paper_csv,
+            paper_markdown,
+            results_from_summaries,
+        )
 
         results = results_from_summaries(summaries, commands, trainings)
         if paper:
@@ -153,7 +158,7 @@ def write_report(
             write_text(paths["paper_table"], md)
             write_text(paths["paper_csv"], paper_csv(comparison))
         if html:
-            from kinder_bench.html_report import HTML_FILE, RunDirInfo, render_html
+            from kinder_bench.reporting.html_report import HTML_FILE, RunDirInfo, render_html
 
             dirs = [RunDirInfo(str(d), load_config(d)) for d in run_dirs]
             page = render_html(results, records, dirs, comparison, title=title, note=note)

@@ -29,7 +29,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from kinder_bench.demo_collection import COLLECTION_SEED, CollectConfig
+from kinder_bench.demos.collection import COLLECTION_SEED, CollectConfig
 
 #: Where the datasets live (relative to the repository root): ``datasets/<name>/``.
 DATASETS_DIR = Path("datasets")

@@ -35,12 +35,12 @@ import gymnasium
 import numpy as np
 
 from kinder_bench.agents import Agent, agent_class, args_to_dict, make_agent, make_args
-from kinder_bench.envs import default_max_steps, make_env, resolve_env_id, short_id
-from kinder_bench.executors import execute
-from kinder_bench.metrics import aggregate
-from kinder_bench.protocol import PAPER_EPISODES, PAPER_MAX_STEPS, PAPER_SEEDS
-from kinder_bench.recording import VIDEO_FORMATS, write_video
-from kinder_bench.results import (
+from kinder_bench.evaluation.envs import default_max_steps, make_env, resolve_env_id, short_id
+from kinder_bench.evaluation.executors import execute
+from kinder_bench.evaluation.metrics import aggregate
+from kinder_bench.evaluation.protocol import PAPER_EPISODES, PAPER_MAX_STEPS, PAPER_SEEDS
+from kinder_bench.evaluation.recording import VIDEO_FORMATS, write_video
+from kinder_bench.evaluation.results import (
     CONFIG_FILE,
     RESULTS_FILE,
     SCHEMA_VERSION,
@@ -52,7 +52,7 @@ from kinder_bench.results import (
     write_json,
     write_text,
 )
-from kinder_bench.summary import CSV_FILE, csv_table, dedupe, run_commands, run_trainings
+from kinder_bench.evaluation.summary import CSV_FILE, csv_table, dedupe, run_commands, run_trainings
 
 #: Fields that are wall-clock measurements (everything else in a record is deterministic).
 TIMING_FIELDS = ("inference_time", "env_time", "finished_at")
@@ -74,13 +74,14 @@ class RunConfig:
     """Episodes per seed (the paper: 50)."""
     max_steps: int | None = None
     """Step budget per episode; None: the paper's budget for its eight benchmark envs
-    (:data:`~kinder_bench.protocol.PAPER_MAX_STEPS`), else the env's ``max_episode_steps``."""
+    (:data:`~kinder_bench.evaluation.protocol.PAPER_MAX_STEPS`), else the env's
+    ``max_episode_steps``."""
     label: str | None = None
     """The method's name in reports; None: the agent name."""
     training: str = ""
     """The training budget of a learned agent's checkpoints, in words (``1M env steps``),
     recorded in ``config.json`` and the summary rows (a learned agent fills a paper cell only
-    with the paper's budget; :mod:`kinder_bench.paper`); empty: not recorded."""
+    with the paper's budget; :mod:`kinder_bench.reporting.paper`); empty: not recorded."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -393,7 +394,8 @@ def run_benchmark(
         imports: Modules imported first, here and in every worker (to register envs or agents).
         progress: Show a progress bar.
         command: The command to record in ``config.json`` for these runs (reports show it);
-            default: this process's command line (:func:`~kinder_bench.results.invocation`).
+            default: this process's command line
+            (:func:`~kinder_bench.evaluation.results.invocation`).
     """
     if record_frames is not None and record_frames < 1:
         raise ValueError(f"record_frames must be >= 1 or None, got {record_frames}")

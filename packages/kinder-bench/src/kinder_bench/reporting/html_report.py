@@ -7,8 +7,8 @@ archived or opened offline. It shows:
 * filters by env and by method (checkboxes; they apply to everything below),
 * the results table (one row per env × method: SR, Rwd on successes, Inf-Time, each mean ± std
   over seeds, and the paper's value beside ours only for a run at the paper's protocol; any other
-  run is a variant named by what differs, as in :mod:`kinder_bench.paper`; with ``paper=True``
-  also the paper's cells no run of any kind covers, with the reason),
+  run is a variant named by what differs, as in :mod:`kinder_bench.reporting.paper`; with
+  ``paper=True`` also the paper's cells no run of any kind covers, with the reason),
 * the success-rate plot (an SVG bar chart drawn by the page from the table's data, ±std bars),
 * the recorded episodes per env (the first recorded episode of each method; videos larger than
   :data:`MAX_VIDEO_BYTES` are listed by path instead of embedded),
@@ -28,8 +28,8 @@ from pathlib import Path
 from typing import Any
 
 from kinder_bench.agents import agent_name
-from kinder_bench.envs import short_id
-from kinder_bench.paper import (
+from kinder_bench.evaluation.envs import short_id
+from kinder_bench.reporting.paper import (
     METRICS,
     STD_DIGITS,
     Comparison,

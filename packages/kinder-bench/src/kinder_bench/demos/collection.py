@@ -3,17 +3,18 @@
 A collection is ``(env id, agent, agent arguments, seed, wanted successes, step budget)``
 (:class:`CollectConfig`). Attempt ``i`` resets the env with the ``i``-th draw of
 ``default_rng(seed).integers(0, 2**31 - 1)`` and seeds the agent from ``SeedSequence([seed, i])``
-(the runner's convention, :mod:`kinder_bench.runner`), so every attempt depends only on its index.
-Attempts run through the runner's executors (:func:`kinder_bench.executors.execute`) in batches
-sized from the success rate so far, until ``episodes`` attempts succeeded or ``max_attempts``
-were made. The kept episodes are **the first ``episodes`` successes by attempt index**, so the
-result does not depend on the executor, the number of workers or the finishing order.
+(the runner's convention, :mod:`kinder_bench.evaluation.runner`), so every attempt depends only on
+its index. Attempts run through the runner's executors
+(:func:`kinder_bench.evaluation.executors.execute`) in batches sized from the success rate so far,
+until ``episodes`` attempts succeeded or ``max_attempts`` were made. The kept episodes are **the
+first ``episodes`` successes by attempt index**, so the result does not depend on the executor, the
+number of workers or the finishing order.
 
 Files in the collection directory:
 
 * ``attempts.jsonl``: one line per finished attempt (index, env seed, success, steps, wall-clock
-  seconds, error); appended atomically (:func:`kinder_bench.results.append_record`). Running the
-  same command again skips the attempts listed there (resume).
+  seconds, error); appended atomically (:func:`kinder_bench.evaluation.results.append_record`).
+  Running the same command again skips the attempts listed there (resume).
 * ``episodes/attempt-<index>.npz``: each successful episode's :class:`EpisodeRecord`, written
   atomically (:mod:`kinder_gym.demos.store`), with skill labels for agents that expose
   ``last_skill`` (the bilevel planner: :class:`~kinder_bench.baselines.bilevel_planning.
@@ -29,7 +30,7 @@ episode files.
 
 **Determinism caveat.** An attempt is deterministic except through wall-clock limits inside the
 agent: the bilevel planner's ``planning_timeout``. The dataset specs
-(:mod:`kinder_bench.dataset_specs`) raise it far above the time a plan takes, so that the counted
+(:mod:`kinder_bench.demos.specs`) raise it far above the time a plan takes, so that the counted
 limits (abstract plans, samples per step) decide, not the machine's speed.
 """
 
@@ -49,11 +50,11 @@ from typing import Any
 import gymnasium
 
 from kinder_bench.agents import agent_class, args_to_dict, make_agent, make_args
-from kinder_bench.envs import default_max_steps, make_env, resolve_env_id
-from kinder_bench.executors import execute
-from kinder_bench.protocol import PAPER_MAX_STEPS
-from kinder_bench.results import append_record, load_records, write_json
-from kinder_bench.runner import agent_seed, episode_seeds, import_modules
+from kinder_bench.evaluation.envs import default_max_steps, make_env, resolve_env_id
+from kinder_bench.evaluation.executors import execute
+from kinder_bench.evaluation.protocol import PAPER_MAX_STEPS
+from kinder_bench.evaluation.results import append_record, load_records, write_json
+from kinder_bench.evaluation.runner import agent_seed, episode_seeds, import_modules
 from kinder_gym.demos.record import SOURCES, EpisodeRecorder
 from kinder_gym.demos.store import load_record, save_record
 

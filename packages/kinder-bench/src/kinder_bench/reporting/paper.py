@@ -8,20 +8,20 @@ from run directories (:func:`results_from_summaries`) or from committed ``summar
 ``benchmarks/results/``.
 
 One rule decides what fills a cell beside the paper: a run at the paper's protocol, i.e. seeds 0–4
-× 50 episodes, the protocol's step budget (:mod:`kinder_bench.protocol`), the baseline's paper
-settings and its paper training budget (``kinder_bench/data/paper_settings.csv``, loaded by
+× 50 episodes, the protocol's step budget (:mod:`kinder_bench.evaluation.protocol`), the baseline's
+paper settings and its paper training budget (``kinder_bench/data/paper_settings.csv``, loaded by
 :func:`load_settings`). :func:`protocol_deviations` lists what a run's recorded settings (seeds,
 episodes, step budget, agent arguments, training budget) do differently; a run with none, labelled
 with its agent's name and measured by us (not transcribed from a page) on the env as it is now (not
 listed in ``kinder_bench/data/pre_conformance_runs.csv``, the runs measured before their env was
 made to follow upstream), is at the paper's protocol. Every other run is a variant, named by what
-differs (:func:`variant_name`: ``MPC · 2×2, horizon=20``) and listed in its own row with its
-budget, never in the paper's column. A paper cell is therefore at the paper's protocol, covered by
-variants only, or not run (``n/r``) — and only then does it say why, as a lettered note under the
-table: the agent's own :meth:`~kinder_bench.agents.Agent.unavailable` reason (a checkpoint, an
-endpoint, a GPU, a planning model), that no such agent exists here, or that it can run here but is
-not in the given runs. When several runs of one agent at the paper's protocol cover a paper env,
-the one with the most episodes fills the cell and the others are listed as variants."""
+differs (:func:`variant_name`: ``MPC · 2×2, horizon=20``) and listed in its own row with its budget,
+never in the paper's column. A paper cell is therefore at the paper's protocol, covered by variants
+only, or not run (``n/r``) — and only then does it say why, as a lettered note under the table: the
+agent's own :meth:`~kinder_bench.agents.Agent.unavailable` reason (a checkpoint, an endpoint, a GPU,
+a planning model), that no such agent exists here, or that it can run here but is not in the given
+runs. When several runs of one agent at the paper's protocol cover a paper env, the one with the
+most episodes fills the cell and the others are listed as variants."""
 
 from __future__ import annotations
 
@@ -36,9 +36,9 @@ from pathlib import Path
 from typing import Any
 
 from kinder_bench.agents import agent_name, unavailable_reason
-from kinder_bench.envs import short_id
-from kinder_bench.metrics import Stat, Summary
-from kinder_bench.protocol import PAPER_EPISODES, PAPER_MAX_STEPS, PAPER_SEEDS
+from kinder_bench.evaluation.envs import short_id
+from kinder_bench.evaluation.metrics import Stat, Summary
+from kinder_bench.evaluation.protocol import PAPER_EPISODES, PAPER_MAX_STEPS, PAPER_SEEDS
 
 METRICS = ("SR", "Rwd", "Inf-Time")
 METRIC_LABELS = {"SR": "SR ↑", "Rwd": "Rwd ↑", "Inf-Time": "Inf-Time (s) ↓"}
@@ -180,7 +180,8 @@ class Result:
     @property
     def is_variant(self) -> bool:
         """Labelled other than its agent's name (``ppo-dense``), not counting the run id that
-        :func:`~kinder_bench.metrics.aggregate` appends to tell runs of one label apart."""
+        :func:`~kinder_bench.evaluation.metrics.aggregate` appends to tell runs of one label
+        apart."""
         return self.method.removesuffix(f"[{self.run_id[:6]}]") != self.agent
 
     def stat(self, metric: str) -> Stat:
@@ -192,8 +193,8 @@ def results_from_summaries(
     commands: Mapping[str, str] | None = None,
     trainings: Mapping[str, str] | None = None,
 ) -> list[Result]:
-    """Results from :func:`~kinder_bench.metrics.aggregate`'s summaries (``commands``: run id →
-    the command that ran it; ``trainings``: run id → its training budget)."""
+    """Results from :func:`~kinder_bench.evaluation.metrics.aggregate`'s summaries (``commands``:
+    run id → the command that ran it; ``trainings``: run id → its training budget)."""
     commands = commands or {}
     trainings = trainings or {}
     return [

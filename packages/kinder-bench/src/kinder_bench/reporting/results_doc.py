@@ -3,17 +3,17 @@
 Every ``*_summary.csv`` in ``benchmarks/results/`` (the ``summary.csv`` the runner writes into a
 run directory when a run ends, copied there, with a ``command`` column: the command that produced
 each row) becomes a table, and all of them together fill the paper's Table II layout beside the
-paper's figures (:mod:`kinder_bench.paper`) under its rule: a cell is filled only by a run at the
-paper's protocol; every other run is a labelled variant in rows of its own; ``n/r`` only where no
-run of any kind exists, with why and the command that fills it. The page opens with the count of
-the paper's 13 × 8 cells in each state. A row without its command is an error: every committed
-figure must say how it was measured. A row transcribed from a results page (its run directory
-gone) says so in its ``provenance`` column and is never at the paper's protocol. Why a paper cell
-was not run is said independently of this machine (so the page is the same everywhere). Columns a
-summary has beyond the report's (e.g. ``search``) are shown after the method's name. The page
-ends with every deviation of a baseline from the paper
-(``kinder_bench/data/baseline_deviations.csv``). ``tools/gen_results_doc.py``
-(``make results-doc``) writes the page.
+paper's figures (:mod:`kinder_bench.reporting.paper`) under its rule: a cell is filled only by a run
+at the paper's protocol; every other run is a labelled variant in rows of its own; ``n/r`` only
+where no run of any kind exists, with why and the command that fills it. The page opens with the
+count of the paper's 13 × 8 cells in each state. A row without its command is an error: every
+committed figure must say how it was measured. A row transcribed from a results page (its run
+directory gone) says so in its ``provenance`` column and is never at the paper's protocol. Why a
+paper cell was not run is said independently of this machine (so the page is the same everywhere).
+Columns a summary has beyond the report's (e.g. ``search``) are shown after the method's name. The
+page ends with every deviation of a baseline from the paper
+(``kinder_bench/data/baseline_deviations.csv``). ``tools/gen_results_doc.py`` (``make results-doc``)
+writes the page.
 """
 
 from __future__ import annotations
@@ -27,8 +27,10 @@ from importlib import resources
 from pathlib import Path
 
 from kinder_bench.agents import AGENTS, agent_class
-from kinder_bench.envs import short_id
-from kinder_bench.paper import (
+from kinder_bench.evaluation.envs import short_id
+from kinder_bench.evaluation.protocol import PAPER_EPISODES, PAPER_SEEDS
+from kinder_bench.evaluation.summary import CSV_COLUMNS
+from kinder_bench.reporting.paper import (
     PRE_CONFORMANCE,
     Result,
     compare,
@@ -40,8 +42,6 @@ from kinder_bench.paper import (
     results_from_csv,
     variant_name,
 )
-from kinder_bench.protocol import PAPER_EPISODES, PAPER_SEEDS
-from kinder_bench.summary import CSV_COLUMNS
 
 GENERATOR = "make results-doc"
 

@@ -13,9 +13,9 @@ import json
 from pathlib import Path
 from typing import Any
 
-from kinder_bench.dataset_specs import DATASETS_DIR, DatasetSpec
-from kinder_bench.demo_collection import BUILD_LOG, CONFIG_FILE, kept_attempts, read_attempts
-from kinder_bench.results import load_records
+from kinder_bench.demos.collection import BUILD_LOG, CONFIG_FILE, kept_attempts, read_attempts
+from kinder_bench.demos.specs import DATASETS_DIR, DatasetSpec
+from kinder_bench.evaluation.results import load_records
 
 SOURCE_TEXT = {
     "bilevel_planning": "the bilevel planner (search-then-sample TAMP), skill-labelled",
@@ -183,7 +183,7 @@ def _versions_text(spec: DatasetSpec, base: Path, summary: dict[str, Any] | None
     """The producing packages' versions (from the dataset, else from a kept episode file)."""
     versions: dict[str, str] = dict((summary or {}).get("versions", {}))
     if not versions and spec.collection_dir(base).exists():
-        from kinder_bench.demo_collection import kept_files
+        from kinder_bench.demos.collection import kept_files
         from kinder_gym.demos.store import load_record
 
         files = kept_files(spec.collection_dir(base))

@@ -14,8 +14,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from kinder_bench.metrics import Summary
-from kinder_bench.results import load_config
+from kinder_bench.evaluation.metrics import Summary
+from kinder_bench.evaluation.results import load_config
 
 CSV_FILE = "summary.csv"
 
@@ -59,7 +59,7 @@ CSV_COLUMNS = (
     "provenance",
 )
 """A summary row: the aggregate, the command that ran it, and the settings that decide whether
-it is at the paper's protocol (:func:`kinder_bench.paper.protocol_deviations`): ``seeds``
+it is at the paper's protocol (:func:`kinder_bench.reporting.paper.protocol_deviations`): ``seeds``
 (space-separated), ``agent_args`` (JSON), ``training`` (a learned agent's training budget, written
 by the tool that trained it) and ``provenance`` (empty for rows the runner wrote; where a
 transcribed row comes from otherwise)."""
