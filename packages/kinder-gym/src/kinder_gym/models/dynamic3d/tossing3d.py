@@ -35,7 +35,8 @@ Concepts:
 Operators: ``Topple(?robot, ?barrier)`` (pre HandEmpty, Upright; add Toppled; delete Upright),
 ``Pick(?robot, ?cube)`` (pre HandEmpty, OnGround; add Holding; delete HandEmpty, OnGround) and
 ``Drop(?robot, ?cube, ?bin, ?barrier)`` (pre Holding, Toppled; add HandEmpty, InBin; delete
-Holding). Goal: every cube InBin.
+Holding) and ``DropOver(?robot, ?cube, ?bin, ?barrier)`` (pre Holding, Upright; the same
+effects). Goal: every cube InBin.
 
 Skills (segment following of :mod:`kinder_gym.models.dynamic3d.tidybot`; Pick reuses Shelf3D's
 grasp constants and reach-above / descend / close / lift sequence):
@@ -52,6 +53,11 @@ grasp constants and reach-above / descend / close / lift sequence):
   (at full speed the cube was flung out when the base braked); re-aim the base at the bin's
   measured position (closed loop: the bin, 0.1 kg, can be nudged); open, wait, and back the base
   0.3 m away.
+* DropOver: with the arm held, drive straight (as Drop, slowly) to face +x 0.27 m short of the
+  upright barrier, level with a sampled spot within 4 cm of the bin's centre; stretch the arm
+  over the barrier along a straight line until the pinch point is 0.40 m above that spot
+  (refused when it lies more than 1.0 m ahead of the base: the arm's IK reaches 1.05 m at that
+  height), open, and retract the arm. The barrier stays upright and the bin unpushed.
 
 Parameter spaces are documented on each controller (``params_doc``). Differences from upstream's
 ``tidybot3d_tossing3D`` model (spec baselines.md): no toss (see above); the barrier is toppled
@@ -73,13 +79,10 @@ the barrier movable (it is a movable 10 kg cuboid in this env and in
 upstream 0.2.5); a task file with a fixed barrier and this bin placement would have no solution
 with the 11-D action.
 
-On upstream's scene (measured, development seeds 1000–1004): BP solves o1 in 5 of 5 episodes
-(the barrier, 6 cm thick once toppled, is pushed ahead of the base rather than driven over, and
-it shoves the 0.1 kg bin along; o1's goal box moves with the bin). o2 is not solved (0 of the
-episodes run): its goal box is fixed on the floor at x = 2, and the pushed barrier shoves the bin
-off it; solving it needs a route around the barrier's end
-(|y| = 5 m) or a reach over it, which this model does not have. Imports kinder_garden3d (the
-``[3d]`` extra).
+On upstream's scene the toppled barrier (6 cm thick) is pushed ahead of the base rather than
+driven over, and it shoves the 0.1 kg bin along: harmless on o1, whose goal box moves with the
+bin, but o2's goal box is fixed on the floor at x = 2, so o2 needs DropOver (without it BP solved
+0 of 5 development episodes of o2). Imports kinder_garden3d (the ``[3d]`` extra).
 """
 
 from __future__ import annotations
@@ -134,6 +137,14 @@ ROOM = (-1.5, 4.0, -2.7, 2.7)
 #: Distance (m) the chassis centre keeps from a floor cube while driving (the cubes are taller
 #: than the chassis' 2 cm ground clearance).
 CUBE_CLEARANCE = CHASSIS_RADIUS + 0.03
+#: Distance (m) from the upright barrier's near face to the base centre for DropOver (the
+#: chassis' half-width, 0.2 m, and a margin).
+OVER_STANDOFF = 0.27
+#: Farthest (m) the pinch point reaches ahead of the base centre at the carry height, measured
+#: with the arm's IK (1.05 m at a 45° pitch), less a margin.
+OVER_REACH = 1.0
+#: Pitch (rad) of the gripper while reaching over the barrier.
+OVER_PITCH = math.radians(30.0)
 #: Distance (m) beyond the barrier's initial line to which Topple drives.
 TOPPLE_OVERSHOOT = 0.8
 #: Barrier tilt thresholds (cosine of the angle between its local z axis and the vertical).
@@ -333,6 +344,44 @@ class DropController(_TossController):
         ]
 
 
+class DropOverController(_TossController):
+    """Release the held cube above the bin with the arm stretched over the upright barrier.
+    Objects: ``(robot, cube, bin, barrier)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
+    params_doc = (
+        "(u, v): the hand opens with the pinch point 0.08·(u − 0.5), 0.08·(v − 0.5) metres "
+        "(world x, y) from the bin's centre, the base facing +x just short of the barrier."
+    )
+
+    hand_must_be = "closed"
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        ctx: TossContext = self.context
+        robot, cube = self.objects[:2]
+        b0 = base_pose(state, robot)
+        arm = arm_joints(state, robot)
+        spot = _xy(state, ctx.bin) + 0.08 * (np.asarray(self.params) - 0.5)
+        front = state.get(ctx.barrier, "x") - state.get(ctx.barrier, "bb_x") / 2
+        stand = np.array([front - OVER_STANDOFF, spot[1], 0.0])
+        if spot[0] - stand[0] > OVER_REACH:
+            raise SkillFailure("DropOver: the bin is out of reach from behind the barrier")
+        if not _path_clear(ctx, state, b0[:2], stand[:2], cube):
+            raise SkillFailure("DropOver: the straight base path to the barrier is blocked")
+        target = np.array([*spot, CARRY_Z])
+        release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS + 4)
+
+        def reach(s: ObjectCentricState) -> list[Segment]:
+            return line_segments(s, robot, target, 0.0, OVER_PITCH, 1.0, spacing=0.05)
+
+        return [
+            self.drive(stand, arm, 1.0, 0.01, CARRY_SPEED),
+            reach,
+            release,
+            Segment(arm=tuple(HOME), arm_tol=0.05, max_steps=80),
+        ]
+
+
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The Tossing3D planning model (any number of cubes)."""
     objects: dict[str, Object] = env.objects  # type: ignore[attr-defined]
@@ -385,6 +434,13 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         frozenset({HandEmpty.lift([r]), InBin.lift([c, b])}),
         frozenset({Holding.lift([r, c])}),
     )
+    drop_over = LiftedOperator(
+        "DropOver",
+        (r, c, b, w),
+        frozenset({Holding.lift([r, c]), Upright.lift([w])}),
+        frozenset({HandEmpty.lift([r]), InBin.lift([c, b])}),
+        frozenset({Holding.lift([r, c])}),
+    )
 
     def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
         """Only the bin, the barrier and the cubes in their operators' roles."""
@@ -393,7 +449,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
             return op.objects[1] == barrier
         if op.parent is pick:
             return op.objects[1] in cubes
-        return op.objects[1] in cubes and op.objects[2:] == (bin_obj, barrier)
+        return op.objects[1] in cubes and op.objects[2:] == (bin_obj, barrier)  # both drops
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
         del state
@@ -408,6 +464,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
             Skill(topple, ToppleController, ctx),
             Skill(pick, PickController, ctx),
             Skill(drop, DropController, ctx),
+            Skill(drop_over, DropOverController, ctx),
         ),
         goal_fn=goal,
         abstraction_fn=abstraction,
@@ -420,6 +477,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
 
 __all__: Sequence[str] = [
     "DropController",
+    "DropOverController",
     "PickController",
     "ToppleController",
     "create_model",
