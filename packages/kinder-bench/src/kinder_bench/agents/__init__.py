@@ -22,11 +22,14 @@ import textwrap
 import types
 import typing
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import gymnasium
 
 from kinder_bench.agents.base import Agent, AgentFailure, NoArgs
+
+T = typing.TypeVar("T")
 
 #: Agent name → ``"module:Class"``. Entry points are strings so heavy baselines import lazily.
 AGENTS: dict[str, str] = {
@@ -101,8 +104,8 @@ def unavailable_reason(
 
 
 def parse_value(raw: Any, annotation: Any, where: str) -> Any:
-    """A command-line string as a value of ``annotation`` (bool, int, float, str, None or JSON);
-    non-strings pass through. ``where`` names the argument in the error."""
+    """A command-line string as a value of ``annotation`` (bool, int, float, str, Path, None or
+    JSON); non-strings pass through. ``where`` names the argument in the error."""
     if not isinstance(raw, str):
         return raw
     origin = typing.get_origin(annotation)
@@ -123,6 +126,8 @@ def parse_value(raw: Any, annotation: Any, where: str) -> Any:
                 continue
         elif option is str:
             return raw
+        elif option is Path:
+            return Path(raw)
     try:
         return json.loads(raw)
     except json.JSONDecodeError:
@@ -132,19 +137,27 @@ def parse_value(raw: Any, annotation: Any, where: str) -> Any:
 def make_args(cls: type[Agent[Any]], values: Mapping[str, Any] | None = None) -> Any:
     """``cls.Args`` built from ``values`` (unset fields keep their defaults; strings are parsed
     by the field's type)."""
-    values = dict(values or {})
-    fields = {f.name: f for f in dataclasses.fields(cls.Args)}
-    unknown = sorted(set(values) - set(fields))
+    return build_dataclass(cls.Args, values or {}, f"agent {cls.name!r}")
+
+
+def build_dataclass(args_cls: type[T], values: Mapping[str, Any], what: str) -> T:
+    """The dataclass ``args_cls`` built from ``values``: unset fields keep their defaults and
+    strings are parsed by the field's type (:func:`parse_value`), so an agent's ``--arg`` and a
+    trainer's options and ``--arg`` reach their dataclass the same way. ``what`` names the owner
+    of the arguments in errors (``agent 'mpc'``, ``kinder train dp``).
+
+    Raises:
+        ValueError: naming unknown fields (and the known ones) or a value that does not parse.
+    """
+    fields = {f.name for f in dataclasses.fields(args_cls)}  # type: ignore[arg-type]
+    unknown = sorted(set(values) - fields)
     if unknown:
         raise ValueError(
-            f"Unknown argument(s) {unknown} for agent {cls.name!r}; its arguments: "
-            f"{sorted(fields) or 'none'}"
+            f"Unknown argument(s) {unknown} for {what}; its arguments: {sorted(fields) or 'none'}"
         )
-    hints = typing.get_type_hints(cls.Args)
-    parsed = {
-        k: parse_value(v, hints[k], f"agent {cls.name!r} argument {k!r}") for k, v in values.items()
-    }
-    return cls.Args(**parsed)
+    hints = typing.get_type_hints(args_cls)
+    parsed = {k: parse_value(v, hints[k], f"{what} argument {k!r}") for k, v in values.items()}
+    return args_cls(**parsed)
 
 
 def args_to_dict(args: Any) -> dict[str, Any]:

@@ -1,4 +1,15 @@
-"""``kinder train``: one command per learning baseline, each with the baseline's own options.
+"""``kinder train``: one command per learning baseline; a trainer's argument dataclass is its
+command line.
+
+Every trainer takes every field of its dataclass as ``--arg FIELD=VALUE``, parsed by the field's
+type as an agent's ``--arg`` is (:func:`~kinder_bench.agents.build_dataclass`). DP and DPES
+(:class:`~kinder_bench.baselines.diffusion.DiffusionTrainArgs`), MBRL
+(:class:`~kinder_bench.baselines.mbrl.MBRLTrainArgs`) and GSC
+(:class:`~kinder_bench.baselines.gsc.config.GSCTrainConfig`) also take each field as an option
+``--field-name``, generated from the dataclass (:func:`~kinder_bench.cli.common.dataclass_command`).
+PPO and SAC name their common fields as options here (``--env``, ``--seed``, ``--steps``, ...):
+their dataclasses live beside Stable-Baselines3, which the command line does not import until a
+PPO or SAC command runs; ``--hp`` is another name of their ``--arg``.
 
 The trainers' shared library (checkpoints, CSV logs) is :mod:`kinder_bench.training`."""
 
@@ -10,7 +21,16 @@ from typing import Annotated
 
 import typer
 
-from kinder_bench.cli.common import fail, parse_seeds, user_errors
+from kinder_bench.baselines.diffusion import DiffusionTrainArgs
+from kinder_bench.baselines.gsc.config import GSCTrainConfig
+from kinder_bench.baselines.mbrl import MBRLTrainArgs
+from kinder_bench.cli.common import (
+    ProgressOpt,
+    dataclass_command,
+    parse_key_values,
+    parse_seeds,
+    user_errors,
+)
 
 train_app = typer.Typer(
     help="Train a learning baseline; evaluate it with `kinder bench run --agent NAME "
@@ -19,141 +39,41 @@ train_app = typer.Typer(
 )
 
 
-DatasetOpt = Annotated[Path, typer.Option(help="The demonstration dataset (LeRobot v3 directory).")]
-OutOpt = Annotated[
-    Path,
-    typer.Option(
-        help="Run directory; rerunning with the same one resumes from its last checkpoint."
-    ),
-]
-EnvOpt = Annotated[str | None, typer.Option(help="Env id (default: the one the dataset names).")]
-SeedOpt = Annotated[int, typer.Option(help="Seed of the weights, the sample order and the noise.")]
-ProgressOpt = Annotated[bool, typer.Option("--progress/--no-progress", help="Show a progress bar.")]
+def _run_diffusion(args: DiffusionTrainArgs, progress: bool) -> None:
+    import torch
 
+    from kinder_bench.baselines.diffusion import train_diffusion
 
-def _diffusion(
-    method: str,
-    dataset: Path,
-    out: Path,
-    steps: int,
-    preset: str,
-    batch_size: int | None,
-    lr: float,
-    warmup_steps: int,
-    env: str | None,
-    save_every: int,
-    log_every: int,
-    seed: int,
-    device: str,
-    num_workers: int,
-    ema: bool,
-    progress: bool,
-) -> None:
-    with user_errors():
-        import torch
-
-        from kinder_bench.baselines.diffusion import DiffusionTrainArgs, train_diffusion
-
-        args = DiffusionTrainArgs(
-            dataset=dataset, out=out, method=method, steps=steps, preset=preset,
-            batch_size=batch_size, lr=lr, warmup_steps=warmup_steps, env=env,
-            save_every=save_every, log_every=log_every, seed=seed, device=device,
-            num_workers=num_workers, ema=ema,
-        )  # fmt: skip
-        if args.device != "cuda":
-            torch.set_num_threads(max(1, min(torch.get_num_threads(), 4)))
-        ckpt = train_diffusion(args, progress=progress)
-    typer.echo(f"checkpoint: {ckpt}")
-    typer.echo(f"evaluate:   kinder bench run --env ENV --agent {method} --arg checkpoint={out}")
-
-
-StepsOpt = Annotated[int, typer.Option(help="Optimiser steps in total.")]
-PresetOpt = Annotated[
-    str, typer.Option(help="paper (the paper's model) or cpu (small, smoke runs).")
-]
-BatchOpt = Annotated[int | None, typer.Option(help="Batch size (default: paper 64, cpu 16).")]
-LrOpt = Annotated[float, typer.Option(help="Peak AdamW learning rate.")]
-WarmupOpt = Annotated[int, typer.Option(help="Linear warm-up steps.")]
-SaveOpt = Annotated[int, typer.Option(help="Checkpoint every this many steps.")]
-LogOpt = Annotated[int, typer.Option(help="Log to progress.csv every this many steps.")]
-DeviceOpt = Annotated[str, typer.Option(help="cpu, cuda or auto.")]
-WorkersOpt = Annotated[int, typer.Option(help="Data-loading worker processes.")]
-EmaOpt = Annotated[bool, typer.Option("--ema/--no-ema", help="Keep an EMA of the weights.")]
-
-
-@train_app.command("dp")
-def train_dp(
-    dataset: DatasetOpt,
-    out: OutOpt,
-    steps: StepsOpt = 100_000,
-    preset: PresetOpt = "paper",
-    batch_size: BatchOpt = None,
-    lr: LrOpt = 1e-4,
-    warmup_steps: WarmupOpt = 500,
-    env: EnvOpt = None,
-    save_every: SaveOpt = 1000,
-    log_every: LogOpt = 100,
-    seed: SeedOpt = 0,
-    device: DeviceOpt = "auto",
-    num_workers: WorkersOpt = 0,
-    ema: EmaOpt = True,
-    progress: ProgressOpt = True,
-) -> None:
-    """Diffusion policy on images + robot state (lerobot DiffusionPolicy, the paper's config)."""
-    _diffusion("dp", dataset, out, steps, preset, batch_size, lr, warmup_steps, env, save_every,
-               log_every, seed, device, num_workers, ema, progress)  # fmt: skip
-
-
-@train_app.command("dpes")
-def train_dpes(
-    dataset: DatasetOpt,
-    out: OutOpt,
-    steps: StepsOpt = 100_000,
-    preset: PresetOpt = "paper",
-    batch_size: BatchOpt = None,
-    lr: LrOpt = 1e-4,
-    warmup_steps: WarmupOpt = 500,
-    env: EnvOpt = None,
-    save_every: SaveOpt = 1000,
-    log_every: LogOpt = 100,
-    seed: SeedOpt = 0,
-    device: DeviceOpt = "auto",
-    num_workers: WorkersOpt = 0,
-    ema: EmaOpt = True,
-    progress: ProgressOpt = True,
-) -> None:
-    """Diffusion policy on images + robot state + environment state (normalised)."""
-    _diffusion("dpes", dataset, out, steps, preset, batch_size, lr, warmup_steps, env, save_every,
-               log_every, seed, device, num_workers, ema, progress)  # fmt: skip
-
-
-@train_app.command("mbrl")
-def train_mbrl_command(
-    dataset: DatasetOpt,
-    out: OutOpt,
-    epochs: Annotated[int, typer.Option(help="Passes over the training transitions.")] = 1000,
-    batch_size: Annotated[int, typer.Option(help="Transitions per step.")] = 512,
-    lr: Annotated[float, typer.Option(help="Adam learning rate.")] = 1e-3,
-    val_fraction: Annotated[float, typer.Option(help="Fraction of episodes held out.")] = 0.1,
-    env: EnvOpt = None,
-    save_every: Annotated[int, typer.Option(help="Checkpoint every this many epochs.")] = 50,
-    seed: SeedOpt = 0,
-    progress: ProgressOpt = True,
-) -> None:
-    """MBRL: the state-delta model that the `mbrl` agent's MPC rolls out; prints its held-out
-    one-step and 10-step open-loop errors."""
-    with user_errors():
-        import torch
-
-        from kinder_bench.baselines.mbrl import MBRLTrainArgs, train_mbrl
-
+    if args.device != "cuda":
         torch.set_num_threads(max(1, min(torch.get_num_threads(), 4)))
-        args = MBRLTrainArgs(
-            dataset=dataset, out=out, epochs=epochs, batch_size=batch_size, lr=lr,
-            val_fraction=val_fraction, env=env, save_every=save_every, seed=seed,
-        )  # fmt: skip
-        ckpt = train_mbrl(args, progress=progress)
-    evaluation = json.loads((out / "eval.json").read_text())
+    ckpt = train_diffusion(args, progress=progress)
+    typer.echo(f"checkpoint: {ckpt}")
+    typer.echo(
+        f"evaluate:   kinder bench run --env ENV --agent {args.method} --arg checkpoint={args.out}"
+    )
+
+
+for _method, _help in (
+    (
+        "dp",
+        "Diffusion policy on images + robot state (lerobot DiffusionPolicy, the paper's config).",
+    ),
+    ("dpes", "Diffusion policy on images + robot state + environment state (normalised)."),
+):
+    dataclass_command(
+        train_app, _method, DiffusionTrainArgs, _run_diffusion, help=_help,
+        what=f"kinder train {_method}", fixed={"method": _method},
+    )  # fmt: skip
+
+
+def _run_mbrl(args: MBRLTrainArgs, progress: bool) -> None:
+    import torch
+
+    from kinder_bench.baselines.mbrl import train_mbrl
+
+    torch.set_num_threads(max(1, min(torch.get_num_threads(), 4)))
+    ckpt = train_mbrl(args, progress=progress)
+    evaluation = json.loads((args.out / "eval.json").read_text())
     typer.echo(f"checkpoint: {ckpt}")
     for k in (1, 10):
         if f"model_l2_{k}" in evaluation:
@@ -163,7 +83,37 @@ def train_mbrl_command(
                 f"{e['model_z']:.3g}), constant-state {e['const_l2']:.4g} (z {e['const_z']:.3g}) "
                 f"over {int(evaluation[f'count_{k}'])} starts"
             )
-    typer.echo(f"evaluate:   kinder bench run --env ENV --agent mbrl --arg checkpoint={out}")
+    typer.echo(f"evaluate:   kinder bench run --env ENV --agent mbrl --arg checkpoint={args.out}")
+
+
+dataclass_command(
+    train_app,
+    "mbrl",
+    MBRLTrainArgs,
+    _run_mbrl,
+    help="MBRL: the state-delta model that the `mbrl` agent's MPC rolls out; prints its "
+    "held-out one-step and 10-step open-loop errors.",
+    what="kinder train mbrl",
+)
+
+
+def _run_gsc(config: GSCTrainConfig, progress: bool) -> None:
+    from kinder_bench.baselines.gsc.train import train_gsc
+
+    train_gsc(config, show_progress=progress)
+    typer.echo(f"GSC model written to {config.out}/model.pt")
+
+
+dataclass_command(
+    train_app,
+    "gsc",
+    GSCTrainConfig,
+    _run_gsc,
+    help="Generative skill chaining: per-skill diffusion models and feasibility classifiers. "
+    "Evaluate with `kinder bench run --env ENV --agent gsc --arg checkpoint=OUT`.",
+    what="kinder train gsc",
+    flags={"env_id": ("--env", "-e"), "out": ("--out", "-o")},
+)
 
 
 @train_app.command("ood")
@@ -190,56 +140,6 @@ def ood_command(
     typer.echo(table)
 
 
-@train_app.command("gsc")
-def train_gsc_command(
-    env: str = typer.Option(..., "--env", "-e", help="The env id, e.g. StickButton2D-b1."),
-    out: str = typer.Option(..., "--out", "-o", help="Checkpoint directory (resumed if present)."),
-    dataset: str | None = typer.Option(
-        None, "--dataset", help="LeRobot dataset or demo collection; default: collect BP demos."
-    ),
-    demo_episodes: int = typer.Option(50, help="BP demos to generate without --dataset."),
-    demo_seed: int = typer.Option(1000, help="Collection seed of the BP demos (not 0-4: eval)."),
-    perturbations: int = typer.Option(4, help="Perturbed executions per demo skill."),
-    steps: int = typer.Option(2000, help="Optimisation steps (every skill per step)."),
-    batch_size: int = typer.Option(128),
-    lr: float = typer.Option(1e-3),
-    hidden: int = typer.Option(128, help="Width of the ε-network."),
-    depth: int = typer.Option(3, help="Residual blocks of the ε-network."),
-    checkpoint_every: int = typer.Option(500),
-    seed: int = typer.Option(0),
-    threads: int = typer.Option(1, help="torch.set_num_threads."),
-    progress: bool = typer.Option(True, help="Show progress bars."),
-) -> None:
-    """Generative skill chaining: per-skill diffusion models and feasibility classifiers.
-
-    Evaluate with `kinder bench run --env ENV --agent gsc --arg checkpoint=OUT`.
-    """
-    from kinder_bench.baselines.gsc.train import GSCTrainConfig, train_gsc
-
-    config = GSCTrainConfig(
-        env_id=env,
-        out=out,
-        dataset=dataset,
-        demo_episodes=demo_episodes,
-        demo_seed=demo_seed,
-        perturbations=perturbations,
-        steps=steps,
-        batch_size=batch_size,
-        lr=lr,
-        hidden=hidden,
-        depth=depth,
-        checkpoint_every=checkpoint_every,
-        seed=seed,
-        threads=threads,
-    )
-    try:
-        train_gsc(config, show_progress=progress)
-    except (ValueError, FileNotFoundError, ImportError) as e:
-        typer.echo(f"Error: {e}", err=True)
-        raise typer.Exit(2) from e
-    typer.echo(f"GSC model written to {out}/model.pt")
-
-
 def _train_rl(
     algo: str,
     env: str,
@@ -262,11 +162,7 @@ def _train_rl(
         "reward": reward,
         "checkpoint_every": checkpoint_every,
     }
-    for item in hp or []:
-        key, sep, value = item.partition("=")
-        if not sep:
-            fail(f"--hp {item!r}: expected KEY=VALUE")
-        values[key.strip()] = value.strip()
+    values.update(parse_key_values(hp, "--arg"))
     with user_errors():
         from kinder_bench.baselines.rl.train import make_train_args, train
 
@@ -308,12 +204,13 @@ CkptOpt = Annotated[int, typer.Option(help="Checkpoint every N env steps (and at
 HpOpt = Annotated[
     list[str] | None,
     typer.Option(
+        "--arg",
         "--hp",
-        help="Any other argument KEY=VALUE of PPOArgs/SACArgs (e.g. hidden_size=64, "
-        "learning_rate=1e-3); see kinder_bench.baselines.rl.train. Repeatable.",
+        help="Any argument FIELD=VALUE of PPOArgs/SACArgs, parsed by the field's type (e.g. "
+        "hidden_size=64, learning_rate=1e-3, keep_steps=[1000,2000]); overrides the option of "
+        "that name; see kinder_bench.baselines.rl.train. Repeatable.",
     ),
 ]
-RLProgressOpt = Annotated[bool, typer.Option(help="Show a progress bar.")]
 
 
 @train_app.command("ppo")
@@ -327,7 +224,7 @@ def train_ppo(
     reward: RewardOpt = "sparse",
     checkpoint_every: CkptOpt = 50_000,
     hp: HpOpt = None,
-    progress: RLProgressOpt = True,
+    progress: ProgressOpt = True,
 ) -> None:
     """PPO with the paper's settings (Stable-Baselines3, the rl extra)."""
     _train_rl("ppo", env, seed, steps, out, n_envs, vec_env, reward, checkpoint_every, hp, progress)
@@ -344,7 +241,7 @@ def train_sac(
     reward: RewardOpt = "sparse",
     checkpoint_every: CkptOpt = 50_000,
     hp: HpOpt = None,
-    progress: RLProgressOpt = True,
+    progress: ProgressOpt = True,
 ) -> None:
     """SAC with the paper's settings (Stable-Baselines3, the rl extra)."""
     _train_rl("sac", env, seed, steps, out, n_envs, vec_env, reward, checkpoint_every, hp, progress)

@@ -11,7 +11,7 @@ GSC was never released for KinDER; this is a reconstruction from the public ``gs
   diffusion ε-model over ``[s, a, s′]`` and a feasibility classifier over ``[s, a]``.
 * :mod:`.sampler`: the chained sampler (γ-overlap score composition, inpainting, ranking).
 * :mod:`.agent`: the ``gsc`` agent (skeleton from BP's abstract search, BP's skills, re-planning).
-* :mod:`.train`: ``kinder train gsc``.
+* :mod:`.train`: ``kinder train gsc``, with its arguments in :mod:`.config`.
 
 Choices the public code leaves open (or that KinDER forces), all ours:
 
@@ -33,9 +33,7 @@ Choices the public code leaves open (or that KinDER forces), all ours:
 * **Sampling defaults**: 50 denoising steps (GSC: 256), 40 samples, γ = 0.5 on every shared
   state, top-1 executed (GSC tries its top 5 with simulator resets; KinDER allows one rollout),
   re-planning from the reached state when a skill fails. No constraint guidance.
+
+Nothing is imported by this ``__init__``: torch loads only when the agent, the sampler or the
+trainer is imported, so the command line reads :mod:`.config` without it.
 """
-
-from kinder_bench.baselines.gsc.agent import GSCAgent, GSCArgs
-from kinder_bench.baselines.gsc.sampler import ChainSamples, ChainStep, sample_chain
-
-__all__ = ["ChainSamples", "ChainStep", "GSCAgent", "GSCArgs", "sample_chain"]
