@@ -51,6 +51,15 @@ robot drives into the chair (5 of the 90 random steps), the mesh chair and our p
 move differently: objects max 0.05 m (measured 0.046; median 4.4e-4). Other one-step errors:
 base median 1.4e-4, max 2.7e-3; arm median 0.029, max 0.051; gripper max 0.010.
 
+Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl (recorded the same way): upstream's mesh
+drink box, dropped from up to 25 cm onto the island as ours, still rocks after the settle (angular
+velocity up to 8.9 rad/s in 21 of 40 seeds, its heading 1 degree either side) and lies tipped
+over in 3 of 40, ours stands still: its orientation and velocities are left out (``KEPT``) and its
+height compared by the KS test alone. One step of the arm's per-physics-step PD differs from
+upstream's held torque by up to 0.22 rad on joint 3 in one random trajectory (9.4e-3 with
+``arm_control="held_torque"``): arm max 0.25 there. Other one-step errors: base median 1.5e-4,
+max 0.142; objects 4.6e-4.
+
 Tossing3D-o1 (recorded the same way) needs no family rule: one-step errors base median 1.3e-4,
 max 2.5e-4; arm median 0.029, max 0.051; gripper max 0.010; objects 3e-12.
 
@@ -92,6 +101,7 @@ IDS = (
     "Tossing3D-o1",
     "BalanceBeam3D-o3",
     "Dynamo3D-o1",
+    "Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl",
 )
 SETTLE_ATOL = 1e-9  # float rounding after the resolution
 CONST_ATOL = 1e-6
@@ -106,6 +116,9 @@ POOLED = {"kinder/SweepIntoDrawer3D-o5-v0": "cube_", "kinder/BalanceBeam3D-o3-v0
 #: dropped cubes, whose extremes come from the few cubes that tumble (12 of 200 upstream, 6 of 150
 #: ours over 40 and 30 seeds).
 POOLED_TAILS = {
+    "kinder/Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl-v0": {
+        f"boxed_drink_0.{f}" for f in ("z",)
+    },
     "kinder/SweepIntoDrawer3D-o5-v0": {
         f"cube_*.{f}" for f in ("qw", "qx", "qy", "qz", "wx", "wy", "wz", "vx", "vy", "vz")
     },
@@ -131,12 +144,18 @@ STEP_TOL = {
 RESOLUTION = {"position": 1e-3, "angle": 1e-3, "quaternion": 1e-2, "velocity": 1e-2}
 #: Features left out of the distribution comparison, kept deviations (module docstring).
 KEPT = {
+    "kinder/Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl-v0": {
+        f"boxed_drink_0.{f}" for f in ("qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
+    },
     "kinder/Dynamo3D-o1-v0": {
         *(f"obstacle_chair.{f}" for f in ("bb_x", "bb_y", "bb_z", "wx", "wy", "wz")),
-    }
+    },
 }
 #: Per-id one-step tolerances that replace ``STEP_TOL``'s for some groups (module docstring).
-STEP_TOL_BY_ID = {"kinder/Dynamo3D-o1-v0": {"objects": (1e-3, 0.05)}}
+STEP_TOL_BY_ID = {
+    "kinder/Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl-v0": {"arm": (0.04, 0.25)},
+    "kinder/Dynamo3D-o1-v0": {"objects": (1e-3, 0.05)},
+}
 
 
 @pytest.fixture(scope="module", params=IDS)

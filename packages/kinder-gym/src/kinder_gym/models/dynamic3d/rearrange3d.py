@@ -1,9 +1,10 @@
 """The Rearrange3D planning model: put household objects into a spatial relation with a bowl.
 
 Every Rearrange3D task (o1: the boxed drink; o2: the boxed drink and the can) names, per object,
-a goal region in a world-aligned frame at the bowl's centre (behind = +x, left = +y, "next to"
-is the union of the left and right boxes). The model reads the goal's ``on`` atoms from the task
-file, so every language variant works with the same code.
+a goal region in the bowl's frame (upstream kindergarden 0.2.5's boxes: behind = -x, in front =
++x, left = -y, right = +y, 5–12 cm from the bowl's centre; "next to" is the whole 24 × 24 cm
+square). The model reads the goal's ``on`` atoms and their regions from the task file, so every
+language variant works with the same code.
 
 Concepts:
 
@@ -33,8 +34,8 @@ a pose is out of the arm's top-down reach, the skill first drives it sideways by
   the bowl and of the other objects.
 
 Parameter spaces: Pick ``(depth,)`` in [0, 1]: the fingers close 2.5 + 1.5·depth cm below the
-object's top. Place ``(box, u, v)`` in [0, 1]³: ``box`` picks one box of the goal region (the
-left or right one of "next to"), ``(u, v)`` the spot of the object's centre in it (uniform along
+object's top. Place ``(box, u, v)`` in [0, 1]³: ``box`` picks one box of the goal region (every
+upstream region has one), ``(u, v)`` the spot of the object's centre in it (uniform along
 its x and y extents); spots whose footprint would overlap the bowl or another object are
 redrawn by the sampler (up to 100 times) and rejected by the skill.
 
@@ -192,7 +193,7 @@ class PlaceController(TopDownController):
     params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
     params_doc = (
         "(box, u, v): box ⌊box·n⌋ of the object's n-box goal region, and the object's centre at "
-        "fractions (u, v) of that box's x and y extents (world-aligned, metres)."
+        "fractions (u, v) of that box's x and y extents (in the region's frame, metres)."
     )
 
     hand_must_be = "closed"
