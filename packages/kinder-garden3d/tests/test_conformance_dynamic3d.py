@@ -50,6 +50,10 @@ settle (angular velocity up to 0.03 rad/s), ours rests: those features are left 
 robot drives into the chair (5 of the 90 random steps), the mesh chair and our primitive one
 move differently: objects max 0.05 m (measured 0.046; median 4.4e-4). Other one-step errors:
 base median 1.4e-4, max 2.7e-3; arm median 0.029, max 0.051; gripper max 0.010.
+Dynamo3D-o3 (recorded the same way; the fixture keeps the first 20 steps of the three random
+trajectories) leaves out the same features of its three chairs (upstream reports 0.5 x 0.5 x 0.9 m
+for each mesh chair); one-step errors base median 1.4e-4, max 2.5e-4; arm median 0.028, max
+0.043; gripper max 0.011; objects 4.6e-4.
 
 Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl (recorded the same way): upstream's mesh
 drink box, dropped from up to 25 cm onto the island as ours, still rocks after the settle (angular
@@ -101,6 +105,7 @@ IDS = (
     "Tossing3D-o1",
     "BalanceBeam3D-o3",
     "Dynamo3D-o1",
+    "Dynamo3D-o3",
     "Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl",
 )
 SETTLE_ATOL = 1e-9  # float rounding after the resolution
@@ -144,6 +149,11 @@ STEP_TOL = {
 RESOLUTION = {"position": 1e-3, "angle": 1e-3, "quaternion": 1e-2, "velocity": 1e-2}
 #: Features left out of the distribution comparison, kept deviations (module docstring).
 KEPT = {
+    "kinder/Dynamo3D-o3-v0": {
+        f"obstacle_chair_{i}.{f}"
+        for i in (1, 2, 3)
+        for f in ("bb_x", "bb_y", "bb_z", "wx", "wy", "wz")
+    },
     "kinder/Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl-v0": {
         f"boxed_drink_0.{f}" for f in ("qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
     },
@@ -274,7 +284,7 @@ def test_reset_distribution_matches_upstream_on_100_seeds(fixture: Fixture) -> N
 
 def test_the_comparison_catches_a_shifted_region(fixture: Fixture) -> None:
     """The check is not vacuous: upstream's own samples pass, and moving one sampled position
-    feature by 10 cm fails."""
+    feature by 10 cm (or by a quarter of its range, where that is more) fails."""
     up = _upstream_rows(fixture)
     names = fixture.feature_names
     n = min(len(v) for v in up.values())
@@ -283,7 +293,8 @@ def test_the_comparison_catches_a_shifted_region(fixture: Fixture) -> None:
     )
     assert not compare(rows, fixture)
     shifted = rows.copy()
-    shifted[:, names.index(next(f for f in names if f.endswith(".x") and f in up))] += 0.1
+    moved = next(f for f in names if f.endswith(".x") and f in up)
+    shifted[:, names.index(moved)] += max(0.1, 0.25 * float(np.ptp(up[moved])))
     assert compare(shifted, fixture)
 
 
