@@ -72,12 +72,16 @@ def batched_rate(env_id: str, n: int, seconds: float, seed: int = 1000) -> dict[
 
 
 def speed_table(a: argparse.Namespace) -> dict[str, Any]:
-    upstream_py = ensure_upstream_venv()
+    upstream_py = None if a.no_upstream else ensure_upstream_venv()
     speed_args = argparse.Namespace(steps=a.single_steps, seconds=a.seconds * 2, render=False)
     rows: dict[str, Any] = {}
     for env_id in a.ids:
         single = run_speed(sys.executable, env_id, speed_args, "{}")
-        up = run_speed(upstream_py, env_id, speed_args, "{}")
+        up = (
+            run_speed(upstream_py, env_id, speed_args, "{}")
+            if upstream_py
+            else {"error": "not measured (--no-upstream)"}
+        )
         batched = [batched_rate(env_id, n, a.seconds) for n in a.n]
         rows[env_id] = {"single": single, "upstream": up, "batched": batched}
         print(json.dumps(rows[env_id]), flush=True)
@@ -171,6 +175,11 @@ def main() -> None:
     p.add_argument("--ppo-env", default="Obstruction2D-o2")
     p.add_argument("--ppo-steps", type=int, default=16_384)
     p.add_argument("--out", type=Path, help="write the JSON records here")
+    p.add_argument(
+        "--no-upstream",
+        action="store_true",
+        help="leave out upstream's single env (a machine without the upstream venv)",
+    )
     a = p.parse_args()
     a.n = a.n or NS
     if a.ppo:

@@ -92,6 +92,34 @@ def test_training_is_deterministic(tmp_path: Path) -> None:
     np.testing.assert_array_equal(acts[0], acts[1])
 
 
+def test_kept_checkpoints_survive_rotation_and_match_a_shorter_run(tmp_path: Path) -> None:
+    """With a constant learning rate, the checkpoint kept at 1024 steps of a 2048-step run is the
+    policy of a 1024-step run with the same seed and arguments."""
+    args = tiny_ppo(anneal_lr=False, keep_steps=(1000,), checkpoint_every=512, keep_checkpoints=1)
+    long = train("ppo", dataclasses.replace(args, total_steps=2048), tmp_path / "long", False)
+    kept = [(s, read_meta(p)["kept"]) for s, p in list_checkpoints(long.out)]
+    assert kept == [(1024, True), (2048, False)]
+    short = train("ppo", dataclasses.replace(args, total_steps=1024), tmp_path / "short", False)
+    env = make_env(MOTION)
+    obs, _ = env.reset(seed=5)
+    acts = [
+        make_agent("ppo", env, {"checkpoint": str(path)}, seed=0).act(obs)
+        for path in (long.out / "checkpoints" / "step_000001024", short.checkpoint)
+    ]
+    np.testing.assert_array_equal(acts[0], acts[1])
+    assert make_train_args("ppo", {"keep_steps": "[300, 100]"}).keep_steps == (100, 300)
+
+
+def test_max_wall_s_stops_at_an_update_boundary_and_resumes(tmp_path: Path) -> None:
+    args = tiny_ppo(total_steps=4096, max_wall_s=1e-6, checkpoint_every=10_000)
+    first = train("ppo", args, tmp_path, progress=False)
+    # The deadline passes before the second rollout: one update's steps, checkpointed.
+    assert first.steps == first.ran_steps == 512
+    assert [s for s, _ in list_checkpoints(tmp_path)] == [512]
+    done = train("ppo", dataclasses.replace(args, max_wall_s=None), tmp_path, progress=False)
+    assert (done.resumed_from, done.steps) == (512, 4096)
+
+
 def test_runner_evaluates_the_checkpoint(ppo_run: Path, tmp_path: Path) -> None:
     # No {seed} in the path: one policy for both seeds.
     runs = [RunConfig(MOTION, "ppo", {"checkpoint": str(ppo_run)}, seeds=(0, 1), episodes=2)]
@@ -201,6 +229,10 @@ def test_bad_training_arguments_are_clear_errors(ppo_run: Path) -> None:
         train("ppo", tiny_ppo(total_steps=2048, seed=1), ppo_run)
     with pytest.raises(ValueError, match="BaseMotion3D shaping"):
         make_rl_env(MOTION, 10, reward="dense")
+    with pytest.raises(ValueError, match="keep_steps must all be > 0"):
+        make_train_args("ppo", {"keep_steps": "[0]"})
+    with pytest.raises(ValueError, match="max_wall_s must be > 0"):
+        make_train_args("ppo", {"max_wall_s": "-1"})
     with pytest.raises(ValueError, match="vec_env must be one of"):
         make_train_args("ppo", {"vec_env": "threads"})
     with pytest.raises(ValueError, match=r"Unknown ppo argument.*buffer_size"):

@@ -125,6 +125,17 @@ class RLArgs:
     """Append a row to ``progress.csv`` every this many env steps (and at the end)."""
     torch_threads: int = 1
     """``torch.set_num_threads`` for training (1 is fastest for these small MLPs)."""
+    device: str = "cpu"
+    """Torch device of the learner (``cpu``, ``cuda``, ``cuda:1``, ``auto``); the envs always
+    step on the CPU. A run may resume on another device."""
+    keep_steps: tuple[int, ...] = ()
+    """Also keep, for good, the checkpoint taken at the first update boundary at or past each of
+    these env step counts (``--arg keep_steps=[1000000,10000000]``). With a constant learning
+    rate (``anneal_lr=false``) the checkpoint kept at 1M steps of a 100M-step run is the policy a
+    1M-step run with the same seed and arguments would end with, so one run serves every budget."""
+    max_wall_s: float | None = None
+    """Stop this call's training at the first update boundary after this many seconds, with a
+    checkpoint there (rerunning resumes); None: train to ``total_steps``."""
 
     def __post_init__(self) -> None:
         checks = [
@@ -138,10 +149,14 @@ class RLArgs:
             (self.keep_checkpoints >= 1, "keep_checkpoints must be >= 1"),
             (self.log_every > 0, "log_every must be > 0"),
             (self.torch_threads >= 1, "torch_threads must be >= 1"),
+            (all(int(k) > 0 for k in self.keep_steps), "keep_steps must all be > 0"),
+            (self.max_wall_s is None or self.max_wall_s > 0, "max_wall_s must be > 0"),
         ]
         for ok, msg in checks:
             if not ok:
                 raise ValueError(f"{type(self).__name__}: {msg}, got {self}")
+        # A JSON list from the command line (or a config file) becomes the declared sorted tuple.
+        object.__setattr__(self, "keep_steps", tuple(sorted(int(k) for k in self.keep_steps)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -195,6 +210,24 @@ class SACArgs(RLArgs):
 ARGS: dict[str, type[RLArgs]] = {"ppo": PPOArgs, "sac": SACArgs}
 
 
+class KinderPPO(PPO):
+    """SB3's PPO that reads episode statistics from the infos of the sub-envs that ended only.
+
+    SB3 scans every sub-env's info after every step for an ``episode`` entry, which only an
+    ended sub-env carries; with thousands of batched sub-envs that scan costs about as much as
+    stepping them. The statistics kept are the same.
+    """
+
+    def _update_info_buffer(
+        self, infos: list[dict[str, Any]], dones: np.ndarray | None = None
+    ) -> None:
+        if dones is None:
+            super()._update_info_buffer(infos, dones)
+            return
+        ended = np.flatnonzero(dones)
+        super()._update_info_buffer([infos[i] for i in ended], np.ones(len(ended), dtype=bool))
+
+
 class KinderSAC(SAC):
     """SB3's SAC with a separate learning rate for the Q networks (``q_learning_rate``).
 
@@ -213,7 +246,7 @@ class KinderSAC(SAC):
             self.logger.record("train/q_learning_rate", self.q_learning_rate)
 
 
-ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": KinderSAC}
+ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": KinderPPO, "sac": KinderSAC}
 
 #: progress.csv columns: common ones, then each algorithm's SB3 training statistics.
 COMMON_COLUMNS = (
@@ -292,7 +325,16 @@ def _config(algo: str, args: RLArgs, res: Resolved) -> dict[str, Any]:
 
 
 # Arguments a rerun may change without making it another run.
-_MAY_CHANGE = {"total_steps", "checkpoint_every", "keep_checkpoints", "log_every", "torch_threads"}
+_MAY_CHANGE = {
+    "total_steps",
+    "checkpoint_every",
+    "keep_checkpoints",
+    "log_every",
+    "torch_threads",
+    "device",
+    "keep_steps",
+    "max_wall_s",
+}
 
 
 def _check_or_write_config(out: Path, config: dict[str, Any]) -> None:
@@ -332,7 +374,7 @@ def _build(algo: str, args: RLArgs, res: Resolved, env: VecNormalize) -> BaseAlg
         lr: Any = (
             LinearSchedule(args.learning_rate, 0.0, 1.0) if args.anneal_lr else args.learning_rate
         )
-        return PPO(
+        return KinderPPO(
             "MlpPolicy",
             env,
             learning_rate=lr,
@@ -351,7 +393,7 @@ def _build(algo: str, args: RLArgs, res: Resolved, env: VecNormalize) -> BaseAlg
                 "activation_fn": torch.nn.Tanh,
             },
             seed=args.seed,
-            device="cpu",
+            device=args.device,
             verbose=0,
         )
     assert isinstance(args, SACArgs)
@@ -369,7 +411,7 @@ def _build(algo: str, args: RLArgs, res: Resolved, env: VecNormalize) -> BaseAlg
         ent_coef="auto",
         policy_kwargs={"net_arch": {"pi": layers, "qf": layers}, "activation_fn": torch.nn.Tanh},
         seed=args.seed,
-        device="cpu",
+        device=args.device,
         verbose=0,
     )
     model.q_learning_rate = args.q_lr
@@ -377,12 +419,21 @@ def _build(algo: str, args: RLArgs, res: Resolved, env: VecNormalize) -> BaseAlg
 
 
 def _save_checkpoint(
-    model: BaseAlgorithm, venv: VecNormalize, out: Path, meta: dict[str, Any], keep: int
+    model: BaseAlgorithm,
+    venv: VecNormalize,
+    out: Path,
+    meta: dict[str, Any],
+    keep: int,
+    kept: bool = False,
 ) -> Path:
+    """Write a checkpoint of ``model`` at its step count, then delete all but the newest ``keep``
+    checkpoints, except those written with ``kept=True`` (``RLArgs.keep_steps``)."""
     steps = int(model.num_timesteps)
     root = out / CHECKPOINTS_DIR
     final = root / checkpoint_name(steps)
     if (final / META_FILE).is_file():
+        if kept and not read_meta(final).get("kept", False):
+            write_json(final / META_FILE, {**read_meta(final), "kept": True})
         return final
     tmp = root / f".tmp_{checkpoint_name(steps)}"
     shutil.rmtree(tmp, ignore_errors=True)
@@ -391,10 +442,11 @@ def _save_checkpoint(
     venv.save(str(tmp / VECNORM_FILE))
     if isinstance(model, SAC):
         model.save_replay_buffer(tmp / REPLAY_FILE)
-    write_json(tmp / META_FILE, {**meta, "steps": steps})
+    write_json(tmp / META_FILE, {**meta, "steps": steps, "kept": kept})
     shutil.rmtree(final, ignore_errors=True)  # an incomplete leftover (no meta.json)
     tmp.rename(final)
-    for _, old in list_checkpoints(out)[:-keep]:
+    rotating = [p for _, p in list_checkpoints(out) if not read_meta(p).get("kept", False)]
+    for old in rotating[:-keep]:
         shutil.rmtree(old, ignore_errors=True)
     return final
 
@@ -422,6 +474,8 @@ class _Monitor(BaseCallback):
         self.lengths: list[int] = []
         self.successes: list[bool] = []
         self.episodes = 0
+        self.stopped_at: Path | None = None
+        """The checkpoint where ``max_wall_s`` stopped training (None: not stopped)."""
 
     def _on_training_start(self) -> None:
         from tqdm import tqdm
@@ -432,6 +486,9 @@ class _Monitor(BaseCallback):
         every_log, every_ckpt = self.args.log_every, self.args.checkpoint_every
         self.next_log = (steps // every_log + 1) * every_log
         self.next_ckpt = (steps // every_ckpt + 1) * every_ckpt
+        self.start_steps = steps
+        self.pending_keep = [k for k in self.args.keep_steps if k > steps]
+        self.deadline = None if self.args.max_wall_s is None else self.t0 + self.args.max_wall_s
         self.bar = tqdm(
             total=self.args.total_steps,
             initial=steps,
@@ -444,7 +501,10 @@ class _Monitor(BaseCallback):
 
     def _on_step(self) -> bool:
         infos = self.locals.get("infos", [])
-        for info in infos:
+        dones = self.locals.get("dones")
+        # Only an ended sub-env's info carries ``episode``.
+        rows = range(len(infos)) if dones is None else np.flatnonzero(dones).tolist()
+        for info in (infos[i] for i in rows):
             ep = info.get("episode")
             if ep is not None:
                 self.returns.append(float(ep["r"]))
@@ -452,7 +512,7 @@ class _Monitor(BaseCallback):
                 self.successes.append(bool(info.get("is_success", False)))
                 self.episodes += 1
         self.bar.update(len(infos))
-        return True
+        return self.stopped_at is None
 
     def _on_rollout_start(self) -> None:
         # Rollout starts follow an update, so the model and the statistics are consistent here.
@@ -460,13 +520,23 @@ class _Monitor(BaseCallback):
         if steps >= self.next_log:
             self.write_row()
             self.next_log = (steps // self.args.log_every + 1) * self.args.log_every
+        if self.pending_keep and steps >= self.pending_keep[0]:
+            self.checkpoint(kept=True)
+            self.pending_keep = [k for k in self.pending_keep if k > steps]
         if steps >= self.next_ckpt:
             self.checkpoint()
             self.next_ckpt = (steps // self.args.checkpoint_every + 1) * self.args.checkpoint_every
+        past = self.deadline is not None and time.perf_counter() >= self.deadline
+        if past and steps > self.start_steps:
+            # Stop before this rollout's first step is used: the checkpoint is the update boundary
+            # (after at least one update, so every call makes progress).
+            if steps > self.last_steps:
+                self.write_row()
+            self.stopped_at = self.checkpoint()
 
-    def checkpoint(self) -> Path:
+    def checkpoint(self, kept: bool = False) -> Path:
         return _save_checkpoint(
-            self.model, self.venv, self.out, self.meta, self.args.keep_checkpoints
+            self.model, self.venv, self.out, self.meta, self.args.keep_checkpoints, kept
         )
 
     def write_row(self) -> None:
@@ -591,7 +661,7 @@ def train(algo: Algo | str, args: RLArgs, out: Path | str, progress: bool = True
             venv.seed(args.seed + resumed)
             env = VecNormalize.load(str(ckpt / VECNORM_FILE), venv)
             env.training = True
-            model = ALGORITHMS[algo].load(ckpt / MODEL_FILE, env=env, device="cpu")
+            model = ALGORITHMS[algo].load(ckpt / MODEL_FILE, env=env, device=args.device)
             set_random_seed(args.seed + resumed)
             model.action_space.seed(args.seed + resumed)
             if isinstance(model, SAC):
@@ -609,6 +679,9 @@ def train(algo: Algo | str, args: RLArgs, out: Path | str, progress: bool = True
             log_interval=cast(int, None),  # SB3 accepts None: our callback does the logging
         )
         wall = time.perf_counter() - t0
+        if monitor.stopped_at is not None:
+            steps = int(read_meta(monitor.stopped_at)["steps"])
+            return TrainResult(out, monitor.stopped_at, steps, resumed, steps - start, wall)
         if int(model.num_timesteps) > monitor.last_steps:
             monitor.write_row()
         final = monitor.checkpoint()
