@@ -33,10 +33,12 @@ def test_concepts_on_edited_states(env) -> None:
     state = env.reset(seed=0)[0]
     ctx = scoop_context(env)
     assert abstract_atoms(ctx, state) == {"(HandEmpty robot)"}
-    # A cube moved into the green bin's goal region counts as InTarget.
+    # A cube moved onto the green bin's floor (2.5 cm above its bottom, the frame of the goal
+    # region) counts as InTarget.
     frame = env.regions.transform(state, "target_bin_region")
     moved = state.copy()
-    for feature, value in zip(("x", "y", "z"), frame[:3, 3], strict=True):
+    on_floor = frame[:3, :3] @ np.array([0.0, 0.0, 0.025]) + frame[:3, 3]
+    for feature, value in zip(("x", "y", "z"), on_floor, strict=True):
         moved.set(ctx.cubes[0], feature, value)
     assert abstract_atoms(ctx, moved) == {"(HandEmpty robot)", f"(InTarget {ctx.cubes[0].name})"}
     # Closed fingers away from the handle hold nothing.
@@ -50,8 +52,8 @@ def test_handle_centre_is_on_the_handle_side(env) -> None:
     ctx = scoop_context(env)
     pos = np.asarray(state[ctx.scoop][:3])
     h = handle_centre(state, ctx.scoop)
-    assert abs(np.linalg.norm(h[:2] - pos[:2]) - 0.025) < 1e-3
-    assert h[2] == pytest.approx(pos[2] + 0.01, abs=1e-3)
+    assert abs(np.linalg.norm(h[:2] - pos[:2]) - 0.0175) < 1e-3
+    assert h[2] == pytest.approx(pos[2] + 0.032, abs=1e-3)
 
 
 def test_context_rejects_other_envs() -> None:
@@ -103,7 +105,8 @@ def test_model_predicates_on_edited_states(env) -> None:
     assert {str(a) for a in model.goal(state)} == {f"(InTarget {c})" for c in cubes}
     frame = env.regions.transform(state, "target_bin_region")
     moved = state.copy()
-    for feature, value in zip(("x", "y", "z"), frame[:3, 3], strict=True):
+    on_floor = frame[:3, :3] @ np.array([0.0, 0.0, 0.025]) + frame[:3, 3]
+    for feature, value in zip(("x", "y", "z"), on_floor, strict=True):
         moved.set(env.objects["cube_3"], feature, value)
     assert atoms(model, moved) == start - {"(InSource cube_3)"} | {"(InTarget cube_3)"}
 
@@ -168,11 +171,11 @@ def test_grasp_shift_keeps_a_touching_cube_out_of_the_pads(env) -> None:
     assert np.all(grasp_shift(ctx, state, cube, 0.0) == 0.0)
     # Touching along the closing direction (y at heading 0): the pinch point moves away from it.
     state.set(other, "x", 0.50)
-    state.set(other, "y", -0.20 + 0.0055)
+    state.set(other, "y", -0.20 + 0.0105)
     shift = grasp_shift(ctx, state, cube, 0.0)
-    assert shift[1] < 0.0 and abs(shift[1]) <= 0.006
+    assert shift[1] < 0.0 and abs(shift[1]) <= 0.0035 + 1e-9
     # Touching along the pads' width (x): the pinch point moves along x instead.
-    state.set(other, "x", 0.50 + 0.0055)
+    state.set(other, "x", 0.50 + 0.0105)
     state.set(other, "y", -0.20)
     shift = grasp_shift(ctx, state, cube, 0.0)
     assert shift[0] < 0.0 and shift[1] == 0.0
@@ -185,7 +188,10 @@ def test_grasp_shift_keeps_a_touching_cube_out_of_the_pads(env) -> None:
 
 
 def test_planner_solves_a_seeded_instance(env) -> None:
-    from kinder_bench.baselines.bilevel_planning import plan_reaches_goal
+    from kinder_bench.baselines.bilevel_planning import BilevelPlanningArgs, plan_reaches_goal
 
-    solved, _ = plan_reaches_goal(env, seed=0)
+    # A budget the check does not depend on: a plan simulates about 1,100 actions of ten cubes
+    # (67 s of planning on a loaded 2-core machine, beyond the benchmark's 60 s).
+    args = BilevelPlanningArgs(planning_timeout=600.0)
+    solved, _ = plan_reaches_goal(env, seed=0, args=args)
     assert solved

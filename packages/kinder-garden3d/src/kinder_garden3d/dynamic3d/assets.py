@@ -382,12 +382,30 @@ def _wiper(name: str, p: Params) -> ObjectAsset:
 
 
 def _scoop(name: str, p: Params) -> ObjectAsset:
-    """A scoop: an open cup with a handle sticking out along -x at rim height."""
+    """A scoop: an open cup (``cup_size`` outside, its floor and walls ``wall`` thick) with a
+    handle sticking out along -x at rim height.
+
+    ``open_front`` leaves out the cup's +x wall (upstream kindergarden 0.2.5's scoop, a
+    dustpan-like cup open opposite its handle). ``origin`` is the body frame: ``"centre"`` (the
+    bounding-box centre) or ``"back"`` (the middle of the cup's back bottom edge, where the
+    handle meets it: upstream's scoop frame)."""
     cx, cy, cz = (float(v) for v in p["cup_size"])
     hx, hy, hz = (float(v) for v in p["handle_size"])
     parts = _open_box((cx, cy, cz), float(p["wall"]), p["rgba"])
+    if p["open_front"]:
+        del parts[1]  # the wall at +x
     parts.append(_Box((-cx / 2 - hx / 2, 0, cz - hz / 2), (hx, hy, hz), p["handle_rgba"]))
-    return _simple(name, parts, p["mass"], p["friction"])
+    if p["origin"] == "centre":
+        return _simple(name, parts, p["mass"], p["friction"])
+    if p["origin"] != "back":
+        raise ValueError(f"scoop {name!r}: origin must be 'centre' or 'back', got {p['origin']!r}")
+    moved = [
+        _Box(_vec3(np.array(q.centre) + np.array([cx / 2, 0.0, 0.0])), q.size, q.rgba, q.kind,
+             q.euler, q.collide)
+        for q in parts
+    ]  # fmt: skip
+    lo, hi = _bbox(moved)
+    return ObjectAsset(_parts_xml(name, moved, p["mass"], p["friction"]), hi - lo, 0.0)
 
 
 def _seesaw(name: str, p: Params) -> ObjectAsset:
@@ -538,7 +556,7 @@ OBJECT_TYPES: dict[str, tuple[Callable[[str, Params], ObjectAsset], Params]] = {
         _scoop,
         {"cup_size": [0.05, 0.05, 0.04], "wall": 0.002, "handle_size": [0.035, 0.02, 0.02],
          "mass": 0.05, "rgba": [0.3, 0.3, 0.8, 1.0], "handle_rgba": [0.2, 0.2, 0.2, 1.0],
-         "friction": _FRICTION},
+         "friction": _FRICTION, "open_front": False, "origin": "centre"},
     ),
     "seesaw": (
         _seesaw,
