@@ -84,6 +84,7 @@ from kinder_gym.models.dynamic2d.kin_robot import (
     kin_config,
     wrap,
 )
+from kinder_gym.models.hand import pick_operator
 from kinder_gym.motion_planning import FloatArray
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
@@ -729,13 +730,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     r = Variable("?robot", robot_t)
     h = Variable("?hook", hook_t)
     t = Variable("?target", target_t)
-    grasp = LiftedOperator(
-        "GraspHook",
-        (r, h),
-        frozenset({HandEmpty.lift([r])}),
-        frozenset({HoldingHook.lift([r, h])}),
-        frozenset({HandEmpty.lift([r])}),
-    )
+    grasp = pick_operator("GraspHook", HandEmpty, HoldingHook, h, [])
     prehook = LiftedOperator(
         "PreHook",
         (r, h, t),

@@ -74,6 +74,7 @@ from kinder_gym.models.dynamic2d.kin_robot import (
     hook_shape,
     wrap,
 )
+from kinder_gym.models.hand import pick_operator
 from kinder_gym.motion_planning import FloatArray
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Controller, Skill, SkillFailure
@@ -349,13 +350,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     Holding = Predicate("Holding", (robot_t, hook_t), holding)
     Poured = Predicate("Poured", (hook_t,), poured)
     r, h = Variable("?robot", robot_t), Variable("?hook", hook_t)
-    grasp = LiftedOperator(
-        "GraspScoop",
-        (r, h),
-        frozenset({HandEmpty.lift([r])}),
-        frozenset({Holding.lift([r, h])}),
-        frozenset({HandEmpty.lift([r])}),
-    )
+    grasp = pick_operator("GraspScoop", HandEmpty, Holding, h, [])
     pour = LiftedOperator(
         "ScoopAndPour",
         (r, h),

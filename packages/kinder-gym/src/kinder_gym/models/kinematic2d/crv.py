@@ -88,6 +88,23 @@ def config_delta4(a: FloatArray, b: FloatArray) -> FloatArray:
     return d
 
 
+def check_not_blocked(
+    controller: Controller, q: FloatArray, last: FloatArray | None, moved: bool
+) -> None:
+    """Raise :class:`~kinder_gym.skills.SkillFailure` when the last action moved the robot from
+    ``last`` and it is still there at ``q``: the env reverted a colliding step."""
+    if moved and last is not None and np.allclose(q, last, atol=1e-12, rtol=0.0):
+        raise SkillFailure(f"{type(controller).__name__}: the robot is blocked at {q.round(3)}")
+
+
+def step_towards(d: FloatArray, max_step: FloatArray) -> FloatArray:
+    """One action's ``[dx, dy, dtheta, darm]`` along the configuration change ``d``: ``d``
+    split into the fewest equal steps within the per-step bounds ``max_step``."""
+    n = max(1, math.ceil(float(np.max(np.abs(d) / max_step)) - 1e-9))
+    out: FloatArray = d / n
+    return out
+
+
 class CRVController(Controller):
     """Waypoint following for the CRV robot (see the module docstring).
 
@@ -128,20 +145,13 @@ class CRVController(Controller):
     def step(self) -> FloatArray:
         assert self.state is not None
         q = robot_config(self.state, self.robot)
-        if (
-            self._last_moved
-            and self._last_config is not None
-            and np.allclose(q, self._last_config, atol=1e-12, rtol=0.0)
-        ):
-            raise SkillFailure(f"{type(self).__name__}: the robot is blocked at {q.round(3)}")
+        check_not_blocked(self, q, self._last_config, self._last_moved)
         while self._k < len(self._plan):
             wp = self._plan[self._k]
             d = config_delta4(q, wp.as_array())
             if np.max(np.abs(d)) > self.tolerance:
-                n = max(1, math.ceil(float(np.max(np.abs(d) / self._max)) - 1e-9))
-                step = d / n
                 self._last_config, self._last_moved = q, True
-                return np.array([*step, wp.vacuum])
+                return np.array([*step_towards(d, self._max), wp.vacuum])
             self._k += 1
         # Every waypoint reached: one last action that sets the final vacuum without moving.
         self._k += 1

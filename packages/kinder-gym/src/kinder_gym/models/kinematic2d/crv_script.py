@@ -22,10 +22,12 @@ from kinder_gym.models.kinematic2d.crv import (
     GRIPPER_WIDTH,
     CRVCollisionChecker,
     Waypoint,
+    check_not_blocked,
     checked_waypoints,
     config_delta4,
     plan_base_path,
     robot_config,
+    step_towards,
 )
 from kinder_gym.motion_planning import FloatArray
 from kinder_gym.skills import Controller, SkillFailure
@@ -126,12 +128,7 @@ class ScriptController(Controller):
     def step(self) -> FloatArray:
         assert self.state is not None
         q = robot_config(self.state, self.robot)
-        if (
-            self._moved
-            and self._last is not None
-            and np.allclose(q, self._last, atol=1e-12, rtol=0.0)
-        ):
-            raise SkillFailure(f"{type(self).__name__}: the robot is blocked at {q.round(3)}")
+        check_not_blocked(self, q, self._last, self._moved)
         self._advance()
         if not self._queue:
             raise SkillFailure(f"{type(self).__name__}: stepped after finishing")
@@ -141,10 +138,8 @@ class ScriptController(Controller):
             self._queue.pop(0)
             self._moved = False
             return np.array([0.0, 0.0, 0.0, 0.0, item.vacuum])
-        d = config_delta4(q, item.as_array())
-        n = max(1, math.ceil(float(np.max(np.abs(d) / self._max)) - 1e-9))
         self._moved = True
-        return np.array([*(d / n), item.vacuum])
+        return np.array([*step_towards(config_delta4(q, item.as_array()), self._max), item.vacuum])
 
     # -- helpers for phases ------------------------------------------------------------------
     def held(self, state: ObjectCentricState) -> list[Object]:
