@@ -1,7 +1,8 @@
-"""The SortClutteredBlocks3D planning model: sort a pile of 1 cm blocks into containers by colour.
+"""The SortClutteredBlocks3D planning model: sort a pile of small blocks into containers by colour.
 
-Covers the table variants (o4 and o20 into bins, o20 into bowls): a pile of 1 cm cubes lies at
-the centre of a 1.2 x 0.6 m table, with four containers around it; each cube's goal region
+Covers the table variants (o4 and o20 into bins, o20 into bowls): a pile of cubes (2 cm, as
+upstream's, in the bins variants) lies at the centre of a 1.2 x 0.6 m table (turned 90° as
+upstream's in the bins variants), with four containers around it; each cube's goal region
 (read from the task file, so the colour cycle is not hard-coded) is a box in its container's
 frame. The o12 cupboard variant (nine cubes and three 35 cm rods from the floor onto four
 cupboard levels) has its own model, :mod:`kinder_gym.models.dynamic3d.sort_cupboard3d`, which
@@ -23,18 +24,20 @@ Skills (targets tracked closed-loop by :mod:`kinder_gym.models.dynamic3d.tidybot
 moves are the robot's :class:`~kinder_gym.models.dynamic3d.tidybot.TopDownController`):
 
 * Pick: the first time, retract the arm and drive the base beside the table's long side,
-  facing it (two straight legs around the table corner), from where the pile and every
+  facing it (straight there from upstream's start on that side, or in two straight legs
+  around the table's corner from elsewhere), from where the pile and every
   container are within the arm's top-down workspace. Then move the pinch point above the cube
-  with the fingers across one of its faces and opened to 1.7 cm only (wide open, they would
-  sweep the cube's neighbours in), descend straight until the pad tips are 3 mm above the
-  cube's bottom (on the table, or on the cube it is stacked on), close and lift straight up.
+  with the fingers across one of its faces and opened only 7 mm wider than the cube (wide
+  open, they would sweep the cube's neighbours in), descend straight until the pad tips are
+  3 mm above the cube's bottom (on the table, or on the cube it is stacked on), close and lift
+  straight up.
   The pinch point is shifted up to 5 mm off the cube's centre along the pads' width when that
   keeps another cube's centre out from between the pads (cubes below the pad tips do not
   count); a pick with no such shift fails at once (the planner then tries another heading or
   another order: a cube stacked on another is picked first).
 * Drop: carry the cube straight above a sampled spot of its goal region, lower it until its
   bottom is 1 cm above the container's floor, open the fingers to 4.7 cm (inside a bin's
-  9 cm), rise, and open fully.
+  8 cm), rise, and open fully.
 
 Parameter spaces: Pick ``(rank,)`` in [0, 1]: the gripper heading among the cube's four face
 headings (sorted by closeness to the base's heading; ``rank`` < 0.5 the closest, else the
@@ -69,6 +72,7 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
@@ -104,13 +108,15 @@ TABLE_GAP = 0.03
 CORNER_CLEARANCE = 0.3
 #: Pinch height (m) above the table top while moving between the pile and the containers.
 TRAVEL_ABOVE = 0.15
-#: Gripper command while reaching around a cube: the pads 0.085·(1 − 0.8) = 1.7 cm apart.
-PRE_GRASP = 0.8
+#: Gap (m) between a cube's faces and the pads while reaching around it (7 mm in all).
+PRE_GRASP_GAP = 0.007
+#: Pad separation (m) of the fully open gripper (the command is 1 − separation / this).
+GRIPPER_OPEN = 0.085
 #: Half-width (m) of a pad across the closing direction, and its thickness along it.
 PAD_HALF_WIDTH = 0.011
 PAD_THICKNESS = 0.009
 #: Offsets (m) of the pinch point from a cube's centre along the pads' width, tried in order
-#: to keep a neighbour out of the grasp; the 1 cm cube stays within the 2.2 cm wide pads.
+#: to keep a neighbour out of the grasp (the pads are 2.2 cm wide).
 GRASP_SHIFTS = (0.0, 0.0025, -0.0025, 0.005, -0.005)
 #: Pad tips reach 2.5 cm beyond the pinch point; they stop this high (m) above the table.
 PAD_REACH = 0.025
@@ -137,15 +143,35 @@ class SortContext:
 
 
 class _Table:
-    """The table's top height and the work pose beside it."""
+    """The table's top height and the work pose beside its long side (the one on the table's
+    local -y side), in world coordinates whatever the table's yaw."""
 
     def __init__(self, ctx: SortContext, state: ObjectCentricState) -> None:
         params = ctx.env.task.fixtures[ctx.table.name].params  # type: ignore[attr-defined]
         self.top = float(params["height"])
         self.centre = np.array([state.get(ctx.table, "x"), state.get(ctx.table, "y")])
+        self.yaw = quat_yaw(np.asarray(state[ctx.table][3:7]))
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        self.rot = np.array([[c, -s], [s, c]])  # table frame -> world
         length, width = float(params["length"]), float(params["width"])
-        self.work = np.array([self.centre[0], self.centre[1] - width / 2 - 0.2 - TABLE_GAP])
-        self.corner_x = self.centre[0] + length / 2 + 0.2 + CORNER_CLEARANCE
+        self.work_local = np.array([0.0, -width / 2 - 0.2 - TABLE_GAP])
+        self.work = self.world(self.work_local)
+        #: Facing the table across its long side.
+        self.heading = self.yaw + math.pi / 2
+        self.corner_local_x = length / 2 + 0.2 + CORNER_CLEARANCE
+
+    def world(self, local: FloatArray) -> FloatArray:
+        """A point of the table's frame (x, y) in world coordinates."""
+        return np.asarray(self.centre + self.rot @ local, dtype=np.float64)
+
+    def local(self, world: FloatArray) -> FloatArray:
+        """A world point (x, y) in the table's frame."""
+        return np.asarray(self.rot.T @ (np.asarray(world) - self.centre), dtype=np.float64)
+
+
+def _pre_grasp(state: ObjectCentricState, cube: Object) -> float:
+    """Gripper command that opens the pads :data:`PRE_GRASP_GAP` wider than ``cube``."""
+    return 1.0 - (state.get(cube, "bb_x") + PRE_GRASP_GAP) / GRIPPER_OPEN
 
 
 def _bottom(state: ObjectCentricState, cube: Object) -> float:
@@ -164,7 +190,7 @@ def _pads_clear(
     across = np.array([-math.sin(yaw), math.cos(yaw)])  # the closing direction
     along = np.array([math.cos(yaw), math.sin(yaw)])
     pinch = np.array([state.get(cube, "x"), state.get(cube, "y")]) + shift * along
-    inner = 0.5 * 0.085 * (1.0 - PRE_GRASP)
+    inner = 0.5 * (state.get(cube, "bb_x") + PRE_GRASP_GAP)
     pad_bottom = _bottom(state, cube) + PAD_CLEARANCE
     for name in ctx.regions:
         other = ctx.env.objects[name]  # type: ignore[attr-defined]
@@ -220,26 +246,29 @@ class PickController(_SortController):
         """The base's heading at the grasp (the work pose's when the base must drive)."""
         table = _Table(self.context, state)
         base = base_pose(state, self.robot)
-        return float(base[2]) if np.abs(base[:2] - table.work).max() <= 0.03 else math.pi / 2
+        return float(base[2]) if np.abs(base[:2] - table.work).max() <= 0.03 else table.heading
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: SortContext = self.context
         robot, cube = self.objects
         table = _Table(ctx, state)
         self.travel_z = table.top + TRAVEL_ABOVE
-        self.grip = PRE_GRASP
+        pre_grasp = _pre_grasp(state, cube)
+        self.grip = pre_grasp
         plan: list[SegmentSource] = []
         base = base_pose(state, robot)
-        work = np.array([*table.work, math.pi / 2])
+        work = np.array([*table.work, table.heading])
         if np.abs(base[:2] - work[:2]).max() > 0.03:
             if np.abs(arm_joints(state, robot) - HOME).max() > 0.05:
                 raise SkillFailure("Pick: the base must drive but the arm is not retracted")
-            corner = np.array([max(float(base[0]), table.corner_x), work[1], math.pi / 2])
-            plan += [
-                lambda s: [drive_segment(s, robot, corner, HOME, 0.0, 0.03)],
-                lambda s: [drive_segment(s, robot, work, HOME, 0.0, 0.01)],
-            ]
-            heading = math.pi / 2
+            here = table.local(base[:2])
+            if here[1] > table.work_local[1] + 0.05:
+                # Around the table's corner: along the long side's line from beyond its end.
+                x = max(float(here[0]), table.corner_local_x)
+                corner = np.array([*table.world(np.array([x, table.work_local[1]])), work[2]])
+                plan.append(lambda s: [drive_segment(s, robot, corner, HOME, 0.0, 0.03)])
+            plan.append(lambda s: [drive_segment(s, robot, work, HOME, 0.0, 0.01)])
+            heading = float(work[2])
         else:
             heading = float(base[2])
         c = np.array([state.get(cube, f) for f in ("x", "y", "z")])
@@ -252,7 +281,7 @@ class PickController(_SortController):
 
         def descend(s: ObjectCentricState) -> list[Segment]:
             target = np.array([*c[:2], grasp_z])
-            return line_segments(s, robot, target, yaw, DOWN, PRE_GRASP, spacing=0.04)
+            return line_segments(s, robot, target, yaw, DOWN, pre_grasp, spacing=0.04)
 
         def lift(s: ObjectCentricState) -> list[Segment]:
             p = pinch_position(base_pose(s, robot), arm_joints(s, robot))
@@ -291,7 +320,9 @@ class DropController(_SortController):
         local = np.array([*(lo + np.asarray(self.params[:2]) * (hi - lo)), 0.0])
         spot = (frame[:3, :3] @ local + frame[:3, 3])[:2]
         container = ctx.containers[region]
-        floor = state.get(container, "z") - 0.5 * state.get(container, "bb_z") + 0.005
+        # The container's lowest point (its frame may be its bottom face), and a 5 mm floor.
+        lowest = state.get(container, "z") - ctx.env.scene.objects[container.name].bottom  # type: ignore[attr-defined]
+        floor = lowest + 0.005
         base = base_pose(state, robot)
         arm = arm_joints(state, robot)
         pinch = pinch_position(base, arm)
@@ -348,7 +379,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         on = env.goal_atoms(state)  # type: ignore[attr-defined]
         for c in cubes:
             pos = np.asarray(state[c][:3])
-            lifted = pos[2] > table_top + 0.015
+            lifted = pos[2] > table_top + 0.5 * state.get(c, "bb_z") + 0.01
             if closed and lifted and np.linalg.norm(pos - pinch) < HOLD_RADIUS:
                 atoms.add(Holding.ground([robot_obj, c]))
             elif on[f"on({c.name}, {regions[c.name]})"]:
