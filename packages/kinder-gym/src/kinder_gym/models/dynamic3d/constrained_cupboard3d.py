@@ -47,7 +47,10 @@ model.
 
 Measured (``benchmarks/results/bilevel_planning.md``, BP defaults, 60 s planning budget): o1
 1.00 and o6 0.96 at 5 seeds × 10 episodes, o2–o5 1.00 at 1 × 10; o6 plans take about 735 of
-the 1000 steps allowed (about 120 per rod); every failure was a planning timeout.
+the 1000 steps allowed (about 120 per rod); every failure was a planning timeout. Those figures
+predate upstream's 30 cm rods and shelf layout; with them, on development seed 1000 (``kinder
+bench run``, 5 episodes of o1, 2 of o6): o1 5/5; o6 0/2 at the 60 s budget on a loaded machine
+(10–12 skill samples in the budget) and 1/1 with ``planning_timeout=600`` (652 steps).
 
 Reuse: SortClutteredBlocks3D-o12
 (:mod:`kinder_gym.models.dynamic3d.sort_cupboard3d`) subclasses these controllers: the grip
