@@ -157,15 +157,17 @@ def evaluations(out: Path, seeds: list[int]) -> list[tuple[str, str, str, str]]:
 
 def evaluate(args: argparse.Namespace) -> None:
     seeds = parse_seeds(args.seeds)
+    suffix = "" if args.episodes == 50 else f"-{len(seeds)}x{args.episodes}"
     for env, ckpt, name, training in evaluations(args.out, seeds):
         if (args.only and name not in args.only) or (args.envs and env not in args.envs):
             continue
         cmd = [
             *(sys.executable, "-m", "kinder_bench", "bench", "run", "--env", env, "--agent", "ppo"),
-            *("--arg", f"checkpoint={ckpt}", "--seeds", args.seeds, "--episodes", "50"),
+            *("--arg", f"checkpoint={ckpt}", "--seeds", args.seeds),
+            *("--episodes", str(args.episodes)),
             *("--label", f"ppo-batched-{name}", "--training", training),
             *("--executor", "process", "--workers", str(args.workers), "--record-episodes", "0"),
-            *("--out", str(args.out / "eval" / f"{env}-{name}"), "--no-progress"),
+            *("--out", str(args.out / "eval" / f"{env}-{name}{suffix}"), "--no-progress"),
         ]
         print(" ".join(cmd), flush=True)
         subprocess.run(cmd, check=True)
@@ -201,8 +203,9 @@ def report(args: argparse.Namespace) -> None:
     plot_curves(args.out, parse_seeds(args.seeds), args.results / "ppo_scale_curves.png")
 
 
-def plot_curves(out: Path, seeds: list[int], dest: Path) -> None:
-    """Training success rate (episodes that ended in each logging interval) against env steps."""
+def plot_curves(out: Path, seeds: list[int], dest: Path, min_episodes: int = 100) -> None:
+    """Training success rate (of the episodes that ended in each logging interval, where at least
+    ``min_episodes`` ended) against env steps, one panel per env."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -210,25 +213,42 @@ def plot_curves(out: Path, seeds: list[int], dest: Path) -> None:
 
     fig, axes = plt.subplots(1, len(ENVS), figsize=(4.2 * len(ENVS), 3.2), sharey=True)
     for ax, env in zip(axes, ENVS):
+        ended = 0
         for seed in seeds:
             progress = run_dir(out, env, seed) / "progress.csv"
             if not progress.is_file():
                 continue
+            pts, before = [], 0
             with progress.open() as f:
-                pts = [
-                    (int(r["steps"]), float(r["success_rate"]))
-                    for r in csv.DictReader(f)
-                    if r.get("success_rate")
-                ]
+                for r in csv.DictReader(f):
+                    n, before = int(r["episodes"]) - before, int(r["episodes"])
+                    if n >= min_episodes and r.get("success_rate"):
+                        pts.append((int(r["steps"]), float(r["success_rate"])))
+            ended += before
             if pts:
-                ax.plot(*zip(*pts), label=f"seed {seed}", lw=1)
+                ax.plot(*zip(*pts), label=f"seed {seed}", lw=1, marker=".")
+        if not ax.lines:
+            ax.text(
+                0.5,
+                0.5,
+                f"{ended:,} training episodes ended\n"
+                "(the episode limit is reached\nonce per sub-env)",
+                ha="center",
+                va="center",
+                transform=ax.transAxes,
+                fontsize=8,
+            )
         ax.set_xscale("log")
+        ax.set_xlim(5e5, 2e8)
         ax.set_title(env)
         ax.set_xlabel("env steps")
         for budget in BUDGETS:
             ax.axvline(budget, color="grey", lw=0.5, ls=":")
     axes[0].set_ylabel("training success rate")
-    axes[-1].legend(fontsize=7)
+    axes[0].set_ylim(-0.02, 1.02)
+    for ax in axes:
+        if ax.lines:
+            ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(dest, dpi=110)
     print(f"wrote {dest}")
@@ -288,6 +308,9 @@ def main() -> None:
             p.add_argument("--workers", type=int, default=2)
             p.add_argument("--only", nargs="*", help="budget names to evaluate (1M 10M max)")
             p.add_argument("--envs", nargs="*", help="envs to evaluate (default: all)")
+            p.add_argument(
+                "--episodes", type=int, default=50, help="per seed (the paper's protocol: 50)"
+            )
         if name == "report":
             p.add_argument("--results", type=Path, default=RESULTS)
         if name == "pack":
