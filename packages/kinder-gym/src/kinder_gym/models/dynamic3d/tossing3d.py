@@ -45,19 +45,22 @@ grasp constants and reach-above / descend / close / lift sequence):
   face +x, and drive straight through the barrier to 0.8 m beyond it.
 * Pick: retract, drive straight to a standoff 0.50–0.60 m from the cube along one of its faces
   (the face nearest a sampled heading; the straight path keeps the chassis clear of the other
-  cubes on the floor and of the bin), reach above the cube with the gripper pitched 45° down,
-  descend, close, and lift the pinch point to 0.40 m (above the bin's 0.2 m rim).
+  cubes on the floor and of the bin), reach above the cube's measured position with the gripper
+  pitched 45° down, descend, close, and lift the pinch point to 0.40 m (above the bin's 0.2 m
+  rim).
 * Drop: with the arm held as it is, drive straight to the base pose that puts the pinch point
   above a sampled spot within 4 cm of the bin's centre, approaching from a sampled heading
   within ±60° of the line from the base to the bin, at most 0.05 m and 0.08 rad per action
   (at full speed the cube was flung out when the base braked); re-aim the base at the bin's
   measured position (closed loop: the bin, 0.1 kg, can be nudged); open, wait, and back the base
   0.3 m away.
-* DropOver: with the arm held, drive straight (as Drop, slowly) to face +x 0.27 m short of the
-  upright barrier, level with a sampled spot within 4 cm of the bin's centre; stretch the arm
-  over the barrier along a straight line until the pinch point is 0.40 m above that spot
-  (refused when it lies more than 1.0 m ahead of the base: the arm's IK reaches 1.05 m at that
-  height), open, and retract the arm. The barrier stays upright and the bin unpushed.
+* DropOver: with the arm held, drive straight (as Drop, slowly) to face +x 0.24 m short of the
+  upright barrier, level with a sampled spot up to 8 cm short of the bin's centre (and within
+  4 cm of it across); stretch the arm over the barrier along a straight line until the pinch
+  point is 0.40 m above that spot (refused when it lies more than 1.04 m ahead of the base: the
+  arm's IK reaches 1.05–1.1 m at that height), open, retract the arm and back the base 0.3 m
+  away (a chassis turning that close to the barrier knocks it over). The barrier stays upright
+  and the bin unpushed.
 
 Parameter spaces are documented on each controller (``params_doc``). Differences from upstream's
 ``tidybot3d_tossing3D`` model (spec baselines.md): no toss (see above); the barrier is toppled
@@ -139,10 +142,12 @@ ROOM = (-1.5, 4.0, -2.7, 2.7)
 CUBE_CLEARANCE = CHASSIS_RADIUS + 0.03
 #: Distance (m) from the upright barrier's near face to the base centre for DropOver (the
 #: chassis' half-width, 0.2 m, and a margin).
-OVER_STANDOFF = 0.27
-#: Farthest (m) the pinch point reaches ahead of the base centre at the carry height, measured
-#: with the arm's IK (1.05 m at a 45° pitch), less a margin.
-OVER_REACH = 1.0
+OVER_STANDOFF = 0.24
+#: Farthest (m) the pinch point reaches ahead of the base centre at the carry height (the arm's
+#: IK reaches 1.05 m at a 45° pitch, 1.1 m at 0° to 20°), less a margin.
+OVER_REACH = 1.04
+#: Distance (m) the base backs away from the barrier after DropOver.
+OVER_BACK_OFF = 0.3
 #: Pitch (rad) of the gripper while reaching over the barrier.
 OVER_PITCH = math.radians(30.0)
 #: Distance (m) beyond the barrier's initial line to which Topple drives.
@@ -267,15 +272,17 @@ class PickController(_TossController):
         if not _path_clear(ctx, state, base_pose(state, robot)[:2], goal[:2], cube):
             raise SkillFailure("Pick: the straight base path is blocked")
         quat = gripper_quat(heading, PITCH)
-        grasp = np.array([*(c - 0.005 * direction), GRASP_Z])
-        above = np.array([*(c - 0.01 * direction), 0.15])
+
+        def _at(s: ObjectCentricState, back: float, z: float) -> FloatArray:
+            # Above the cube's measured position: the chassis may nudge it on the way.
+            return np.array([*(_xy(s, cube) - back * direction), z])
 
         def reach_above(s: ObjectCentricState) -> list[Segment]:
-            q = ik_near(above, quat, base_pose(s, robot), READY)
+            q = ik_near(_at(s, 0.01, 0.15), quat, base_pose(s, robot), READY)
             return [Segment(arm=tuple(q), arm_tol=0.01, max_steps=80)]
 
         def descend(s: ObjectCentricState) -> list[Segment]:
-            return line_segments(s, robot, grasp, heading, PITCH, 0.0)
+            return line_segments(s, robot, _at(s, 0.005, GRASP_Z), heading, PITCH, 0.0)
 
         def lift(s: ObjectCentricState) -> list[Segment]:
             here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
@@ -350,8 +357,9 @@ class DropOverController(_TossController):
 
     params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
     params_doc = (
-        "(u, v): the hand opens with the pinch point 0.08·(u − 0.5), 0.08·(v − 0.5) metres "
-        "(world x, y) from the bin's centre, the base facing +x just short of the barrier."
+        "(u, v): the hand opens with the pinch point −0.08·u, 0.08·(v − 0.5) metres (world x, y) "
+        "from the bin's centre (on the robot's side of it), the base facing +x just short of the "
+        "barrier."
     )
 
     hand_must_be = "closed"
@@ -361,7 +369,8 @@ class DropOverController(_TossController):
         robot, cube = self.objects[:2]
         b0 = base_pose(state, robot)
         arm = arm_joints(state, robot)
-        spot = _xy(state, ctx.bin) + 0.08 * (np.asarray(self.params) - 0.5)
+        u, v = (float(x) for x in self.params)
+        spot = _xy(state, ctx.bin) + np.array([-0.08 * u, 0.08 * (v - 0.5)])
         front = state.get(ctx.barrier, "x") - state.get(ctx.barrier, "bb_x") / 2
         stand = np.array([front - OVER_STANDOFF, spot[1], 0.0])
         if spot[0] - stand[0] > OVER_REACH:
@@ -374,11 +383,15 @@ class DropOverController(_TossController):
         def reach(s: ObjectCentricState) -> list[Segment]:
             return line_segments(s, robot, target, 0.0, OVER_PITCH, 1.0, spacing=0.05)
 
+        back = (float(stand[0]) - OVER_BACK_OFF, float(stand[1]), 0.0)
         return [
             self.drive(stand, arm, 1.0, 0.01, CARRY_SPEED),
             reach,
             release,
             Segment(arm=tuple(HOME), arm_tol=0.05, max_steps=80),
+            # Back away before anything turns the base: a turning chassis this close to the
+            # barrier (its corners reach 0.28 m out) knocks it over.
+            Segment(base=back, arm=tuple(HOME), arm_tol=0.05, base_tol=0.03),
         ]
 
 
