@@ -91,8 +91,9 @@ def test_pads_check_sees_a_cube_between_the_pads(env) -> None:
     _move(state, cube2, (0.0, 0.02, 0.41))
     assert not _pads_clear(ctx, state, cube1, math.pi / 2)
     assert _pads_clear(ctx, state, cube1, 0.0)
-    # ... unless the pinch point moves 2.5 mm away from cube2 along the pads' width.
-    assert _grasp_shift(ctx, state, cube1, math.pi / 2) == pytest.approx(-0.0025)
+    # ... unless the pinch point moves 5 mm (a quarter of the cube) away from cube2 along the
+    # pads' width.
+    assert _grasp_shift(ctx, state, cube1, math.pi / 2) == pytest.approx(-0.005)
     assert _grasp_shift(ctx, state, cube1, 0.0) == 0.0
     # Stacked on cube1: between the pads whichever way they close.
     _move(state, cube2, (0.0, 0.0, 0.43))

@@ -30,14 +30,13 @@ moves are the robot's :class:`~kinder_gym.models.dynamic3d.tidybot.TopDownContro
   with the fingers across one of its faces and opened only 7 mm wider than the cube (wide
   open, they would sweep the cube's neighbours in), descend straight until the pad tips are
   3 mm above the cube's bottom (on the table, or on the cube it is stacked on), close and lift
-  straight up.
-  The pinch point is shifted up to 5 mm off the cube's centre along the pads' width when that
-  keeps another cube's centre out from between the pads (cubes below the pad tips do not
-  count); a pick with no such shift fails at once (the planner then tries another heading or
-  another order: a cube stacked on another is picked first).
+  straight up. The pinch point is shifted up to half the cube's width off its centre along
+  the pads' width when that keeps another cube's centre out from between the pads (cubes below
+  the pad tips do not count); a pick with no such shift fails at once (the planner then tries
+  another heading or another order: a cube stacked on another is picked first).
 * Drop: carry the cube straight above a sampled spot of its goal region, lower it until its
-  bottom is 1 cm above the container's floor, open the fingers to 4.7 cm (inside a bin's
-  8 cm), rise, and open fully.
+  bottom is 1 cm above the container's floor or 2 cm below its rim, whichever is higher, open
+  the fingers to 4.7 cm (inside a bin's 8 cm), rise, and open fully.
 
 Parameter spaces: Pick ``(rank,)`` in [0, 1]: the gripper heading among the cube's four face
 headings (sorted by closeness to the base's heading; ``rank`` < 0.5 the closest, else the
@@ -115,14 +114,18 @@ GRIPPER_OPEN = 0.085
 #: Half-width (m) of a pad across the closing direction, and its thickness along it.
 PAD_HALF_WIDTH = 0.011
 PAD_THICKNESS = 0.009
-#: Offsets (m) of the pinch point from a cube's centre along the pads' width, tried in order
-#: to keep a neighbour out of the grasp (the pads are 2.2 cm wide).
-GRASP_SHIFTS = (0.0, 0.0025, -0.0025, 0.005, -0.005)
+#: Offsets of the pinch point from a cube's centre along the pads' width, as fractions of the
+#: cube's width, tried in order to keep a neighbour out of the grasp (the pads are 2.2 cm wide:
+#: half a 2 cm cube's width off its centre, they still cover half of it).
+GRASP_SHIFTS = (0.0, 0.25, -0.25, 0.5, -0.5)
 #: Pad tips reach 2.5 cm beyond the pinch point; they stop this high (m) above the table.
 PAD_REACH = 0.025
 PAD_CLEARANCE = 0.003
-#: Height (m) of a dropped cube's bottom above its container's floor when the hand opens.
+#: Height (m) of a dropped cube's bottom above its container's floor when the hand opens ...
 DROP_GAP = 0.01
+#: ... or, in a deep container, its depth (m) below the rim: the hand stays above upstream's
+#: 10 cm deep bins (lowered to their floor, the fingers met the walls and the drop failed).
+RIM_DEPTH = 0.02
 #: Goal boxes are shrunk by this much (m) on every side when a drop spot is drawn.
 SPOT_MARGIN = 0.01
 #: Distance (m) from the pinch point within which a lifted cube counts as held.
@@ -207,8 +210,10 @@ def _pads_clear(
 def _grasp_shift(
     ctx: SortContext, state: ObjectCentricState, cube: Object, yaw: float
 ) -> float | None:
-    """The first of :data:`GRASP_SHIFTS` for which the pads close on ``cube`` alone."""
-    for shift in GRASP_SHIFTS:
+    """The first offset (m) of :data:`GRASP_SHIFTS` for which the pads close on ``cube``
+    alone."""
+    for fraction in GRASP_SHIFTS:
+        shift = fraction * state.get(cube, "bb_x")
         if _pads_clear(ctx, state, cube, yaw, shift):
             return shift
     return None
@@ -323,6 +328,7 @@ class DropController(_SortController):
         # The container's lowest point (its frame may be its bottom face), and a 5 mm floor.
         lowest = state.get(container, "z") - ctx.env.scene.objects[container.name].bottom  # type: ignore[attr-defined]
         floor = lowest + 0.005
+        rim = lowest + state.get(container, "bb_z")
         base = base_pose(state, robot)
         arm = arm_joints(state, robot)
         pinch = pinch_position(base, arm)
@@ -330,7 +336,8 @@ class DropController(_SortController):
         c = np.array([state.get(cube, f) for f in ("x", "y", "z")])
         offset = c - pinch
         bottom = float(c[2]) - 0.5 * state.get(cube, "bb_z")
-        release_z = float(pinch[2]) - (bottom - floor - DROP_GAP)
+        release_bottom = max(floor + DROP_GAP, rim - RIM_DEPTH)
+        release_z = float(pinch[2]) - (bottom - release_bottom)
         target_xy = spot - offset[:2]
 
         def carry(s: ObjectCentricState) -> list[Segment]:
