@@ -19,9 +19,9 @@ checkpoint); actions rescaled to [-1, 1]; a sparse reward (−1 per step) unless
   [-5, 2]). The separate Q learning rate is applied by :class:`KinderSAC`.
 * Vector envs: 8 (16 for BaseMotion3D and Transport3D, and for Shelf3D with PPO), as the released
   configs. ``vec_env="dummy"`` steps them in this process, ``"subproc"`` in one process each.
-* Training episodes end at the paper's evaluation budget (``kinder_bench.protocol``), else the
-  env's registered ``max_episode_steps``. **Deviation:** the upstream 2D configs trained with a
-  300-step limit and evaluated with 200.
+* Training episodes end at the paper's evaluation budget (``kinder_bench.evaluation.protocol``),
+  else the env's registered ``max_episode_steps``. **Deviation:** the upstream 2D configs trained
+  with a 300-step limit and evaluated with 200.
 
 Checkpoints (layout in :mod:`~kinder_bench.baselines.rl.checkpoints`) are written every
 ``checkpoint_every`` steps and at the end; rerunning with the same output directory resumes from
