@@ -57,6 +57,12 @@ Limits:
 * A cube lying on an edge (tilted in the pile) is grasped as if flat; cubes whose neighbours
   get caught between the pads make the pick's prediction fail and the planner resample.
 * o12 (cupboard): see :mod:`kinder_gym.models.dynamic3d.sort_cupboard3d`.
+* With upstream's 2 cm blocks dropped into the 7 cm pile, blocks often lie on one another: BP
+  on development seed 1000 solves 2 of 5 o4 episodes (5 of 5 with the earlier 1 cm blocks;
+  ``kinder bench run -a bilevel_planning --seeds 1000 --episodes 5``). The failures were
+  planning timeouts; in the one examined the abstract plan picks a covered block before the
+  one on top of it, and with no stacking predicate in the model, refinement backtracks through
+  the earlier steps' samples instead of reordering.
 
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
