@@ -4,6 +4,8 @@ solving a seeded instance (see ``kinder_gym.models.dynamic3d.scoop_pour3d``)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -169,16 +171,19 @@ def test_grasp_shift_keeps_a_touching_cube_out_of_the_pads(env) -> None:
     for feature, value in zip(("qw", "qx", "qy", "qz"), (1.0, 0.0, 0.0, 0.0), strict=True):
         state.set(cube, feature, value)  # square to the axes: the Pick's heading is 0
     assert np.all(grasp_shift(ctx, state, cube, 0.0) == 0.0)
-    # Touching along the closing direction (y at heading 0): the pinch point moves away from it.
+    # Touching along the closing direction (y at heading 0): it would sit under a pad whatever
+    # the shift, so no grasp at this heading; turned a quarter, the pads close along x and the
+    # pinch point moves along their width, away from it.
     state.set(other, "x", 0.50)
     state.set(other, "y", -0.20 + 0.0105)
-    shift = grasp_shift(ctx, state, cube, 0.0)
-    assert shift[1] < 0.0 and abs(shift[1]) <= 0.0035 + 1e-9
+    assert grasp_shift(ctx, state, cube, 0.0) is None
+    shift = grasp_shift(ctx, state, cube, math.pi / 2)
+    assert shift is not None and shift[1] < 0.0 and abs(shift[1]) <= 0.006 + 1e-9
     # Touching along the pads' width (x): the pinch point moves along x instead.
     state.set(other, "x", 0.50 + 0.0105)
     state.set(other, "y", -0.20)
     shift = grasp_shift(ctx, state, cube, 0.0)
-    assert shift[0] < 0.0 and shift[1] == 0.0
+    assert shift is not None and shift[0] < 0.0 and shift[1] == 0.0
     # Planning the shifted grasp leaves the state alone (it once moved the cube in place).
     model = create_model(env)
     op = next(o for o in model.ground_operators(state) if o.name == "Pick(robot, cube_4)")

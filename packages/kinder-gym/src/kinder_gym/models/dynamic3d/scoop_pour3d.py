@@ -149,7 +149,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     place_operator,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.skills import Skill
+from kinder_gym.skills import Skill, SkillFailure
 
 TARGET_REGION = "target_bin_region"
 #: Handle centre in the scoop's body frame (the middle of the cup's back bottom edge, as
@@ -309,6 +309,8 @@ def holding_cube(ctx: ScoopContext, state: ObjectCentricState, cube: Object) -> 
 
 #: Half-width (m) of a finger pad across the closing direction.
 PAD_HALF_WIDTH = 0.011
+#: Thickness (m) of a finger pad along the closing direction.
+PAD_THICKNESS = 0.009
 #: Offsets of the pinch point from the cube's centre (along the pads' width, along the closing
 #: direction), as multiples of the largest shifts that keep the cube under the 2.2 cm wide pads
 #: and between them (1.7 cm apart), at worst touching one (for a 1 cm cube 6 mm and 3.5 mm), tried
@@ -318,10 +320,10 @@ GRASP_SHIFTS = tuple((a, b) for a in (0.0, 1.0, -1.0) for b in (0.0, 1.0, -1.0))
 
 def grasp_shift(
     ctx: ScoopContext, state: ObjectCentricState, cube: Object, yaw: float
-) -> FloatArray:
+) -> FloatArray | None:
     """The first of :data:`GRASP_SHIFTS` (as a world offset) for which no other cube reaches
-    into the gap between the pads closing across ``cube`` at gripper heading ``yaw``; no shift
-    when none is clear."""
+    into the gap between the pads closing across ``cube`` at gripper heading ``yaw``, or under
+    the pads (a 1 cm cube there stops their descent); None when none is clear."""
     along = np.array([math.cos(yaw), math.sin(yaw)])
     across = np.array([-math.sin(yaw), math.cos(yaw)])  # the closing direction
     centre = np.array([state.get(cube, "x"), state.get(cube, "y")])
@@ -335,12 +337,12 @@ def grasp_shift(
     for a, b in GRASP_SHIFTS:
         shift = a * (PAD_HALF_WIDTH - half_cube) * along + b * (inner - half_cube) * across
         if all(
-            abs(float((d - shift) @ across)) - half >= inner
+            abs(float((d - shift) @ across)) - half >= inner + PAD_THICKNESS
             or abs(float((d - shift) @ along)) >= PAD_HALF_WIDTH + half
             for d, half in others
         ):
             return shift
-    return np.zeros(2)
+    return None
 
 
 class PickCubeController(Dynamic3DController):
@@ -354,8 +356,16 @@ class PickCubeController(Dynamic3DController):
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         robot, cube = self.objects
         c = np.array(state[cube][:3], dtype=np.float64)  # a copy: it is shifted below
-        yaw = (quat_yaw(np.asarray(state[cube][3:7])) + math.pi / 4) % (math.pi / 2) - math.pi / 4
-        c[:2] += grasp_shift(self.context, state, cube, yaw)
+        cube_yaw = quat_yaw(np.asarray(state[cube][3:7]))
+        square = (cube_yaw + math.pi / 4) % (math.pi / 2) - math.pi / 4
+        # The fingers close across either pair of the cube's faces: the first clear one.
+        for yaw in (square, square + math.pi / 2):
+            shift = grasp_shift(self.context, state, cube, yaw)
+            if shift is not None:
+                break
+        else:
+            raise SkillFailure("Pick: a neighbouring cube is between or under the pads")
+        c[:2] += shift
         quat = gripper_quat(yaw, PITCH_DOWN)
         goal = np.array([CUBE_BASE_X, c[1] + 0.1 * (2 * float(self.params[0]) - 1), 0.0])
 
