@@ -85,6 +85,17 @@ is compared by the KS test alone. Upstream's seesaw still rocks after the settle
 velocity up to 0.019 rad/s, its mesh pivot), ours rests: both lie within ``SETTLE_NOISE``.
 One-step errors: base median 1.4e-4, max 2.5e-4; arm median 0.028, max 0.042; gripper max 0.010;
 objects 1.0e-4 (the blocks resting 0.1 mm deeper in upstream's contacts).
+
+ScoopPour3D-o10 (recorded the same way; the fixture keeps 3 full reset vectors and the first 8
+steps of one random trajectory, to stay under 200 KB): the ten 1 cm cubes dropped into the yellow
+bin are exchangeable and pooled; which face a tumbling cube lands on, how high it settles (a
+cube resting on another) and the velocities it still has are chance, so their orientation, height
+and velocities are compared by the KS test alone. Upstream reports the scoop's bounding box from
+its size formula (8.9 x 5.4 cm), 4 mm more than its geometry, which ours reports (``KEPT``).
+Upstream's contacts sink deeper under load: its yellow bin sits 0.6 mm lower under the cubes and
+the cubes 0.9 mm lower, so heights are compared after removing that offset (``HEIGHT_SHIFT``).
+One-step errors: base median 1.3e-4, max 2.4e-4; arm median 0.025, max 0.038; gripper max 0.010;
+objects 9.1e-4 (the cubes rising out of upstream's deeper contacts in the first step).
 """
 
 from __future__ import annotations
@@ -113,6 +124,7 @@ IDS = (
     "ConstrainedCupboard3D-o1",
     "Tossing3D-o1",
     "BalanceBeam3D-o3",
+    "ScoopPour3D-o10",
     "Dynamo3D-o1",
     "Dynamo3D-o3",
     "Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl",
@@ -127,6 +139,7 @@ RANGE_MISS = 1e-4
 ALPHA = 1e-3
 #: Features pooled over exchangeable objects: id -> object-name prefix.
 POOLED = {
+    "kinder/ScoopPour3D-o10-v0": "cube_",
     "kinder/SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins-v0": "cube",
     "kinder/SweepIntoDrawer3D-o5-v0": "cube_",
     "kinder/BalanceBeam3D-o3-v0": "small_block_",
@@ -135,6 +148,9 @@ POOLED = {
 #: dropped cubes, whose extremes come from the few cubes that tumble (12 of 200 upstream, 6 of 150
 #: ours over 40 and 30 seeds).
 POOLED_TAILS = {
+    "kinder/ScoopPour3D-o10-v0": {
+        f"cube_*.{f}" for f in ("z", "qw", "qx", "qy", "qz", "wx", "wy", "wz", "vx", "vy", "vz")
+    },
     "kinder/SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins-v0": {
         f"cube*.{f}"
         for f in ("x", "y", "z", "qw", "qx", "qy", "qz", "wx", "wy", "wz", "vx", "vy", "vz")
@@ -167,6 +183,7 @@ STEP_TOL = {
 RESOLUTION = {"position": 1e-3, "angle": 1e-3, "quaternion": 1e-2, "velocity": 1e-2}
 #: Features left out of the distribution comparison, kept deviations (module docstring).
 KEPT = {
+    "kinder/ScoopPour3D-o10-v0": {"scoop_0.bb_x", "scoop_0.bb_y"},
     "kinder/Dynamo3D-o3-v0": {
         f"obstacle_chair_{i}.{f}"
         for i in (1, 2, 3)
@@ -179,6 +196,10 @@ KEPT = {
         *(f"obstacle_chair.{f}" for f in ("bb_x", "bb_y", "bb_z", "wx", "wy", "wz")),
     },
 }
+#: Heights compared after removing the offset between the two sides' medians, up to this much
+#: (m): upstream's contacts sink deeper under load (ScoopPour3D: the yellow bin under ten 0.1 kg
+#: cubes 0.6 mm, the cubes on its floor 0.9 mm; measured on seeds 1000..1029 against upstream's).
+HEIGHT_SHIFT = {"kinder/ScoopPour3D-o10-v0": 1.5e-3}
 #: Per-id one-step tolerances that replace ``STEP_TOL``'s for some groups (module docstring).
 STEP_TOL_BY_ID = {
     "kinder/Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl-v0": {"arm": (0.04, 0.25)},
@@ -247,14 +268,20 @@ def compare(ours: np.ndarray, fx: Fixture) -> list[str]:
         pooled_up.setdefault(key, []).append(up[name])
     for key, cols in pooled_ours.items():
         res = _resolution(key)
-        a = np.round(np.concatenate(cols) / res) * res
+        raw = np.concatenate(cols)
+        shift = HEIGHT_SHIFT.get(fx.env_id, 0.0)
+        if key.endswith(".z") and shift:
+            offset = float(np.median(np.concatenate(pooled_up[key])) - np.median(raw))
+            raw = raw + float(np.clip(offset, -shift, shift))
+        a = np.round(raw / res) * res
         b = np.round(np.concatenate(pooled_up[key]) / res) * res
         lo, hi = min(a.min(), b.min()), max(a.max(), b.max())
         if hi - lo <= res + SETTLE_ATOL:
             continue  # both at rest at the same value, to the resolution
         tails = key in POOLED_TAILS.get(fx.env_id, ())
         share = max(RANGE_SLACK, 1.0 - RANGE_MISS ** (1.0 / ours.shape[0]))
-        slack = max(share * (b.max() - b.min()), res)
+        # At least one rounding step (plus float noise: 0.93 - 0.92 is 0.010000000000000009).
+        slack = max(share * (b.max() - b.min()), res) + SETTLE_ATOL
         if not tails and (abs(a.min() - b.min()) > slack or abs(a.max() - b.max()) > slack):
             ours_range = f"{a.min():.4g}..{a.max():.4g}"
             problems.append(f"{key}: range {ours_range} vs upstream {b.min():.4g}..{b.max():.4g}")
