@@ -30,9 +30,11 @@ driving):
   0.1·(2·dy − 1) m beside the cube along y (skipped when within 3 cm already), reach above the
   cube at 0.6 m with the gripper pointing down, its fingers square to the cube's faces and
   opened to 1.7 cm only, descend along a straight line to 0.506 m, close, and lift to 0.6 m.
-  When another cube reaches into the gap between the pads, the pinch point moves across or along
-  the pads as far as the cube still sits between them (for a 1 cm cube 3.5 mm and 6 mm;
-  :data:`GRASP_SHIFTS`) to leave it out.
+  When another cube reaches into the gap between the pads or under a pad (a 1 cm cube there
+  stops the descent), the pinch point moves across or along the pads as far as the cube still
+  sits between them (for a 1 cm cube 3.5 mm and 6 mm; :data:`GRASP_SHIFTS`), with the fingers
+  across either pair of the cube's faces, to leave it out; when no grasp is clear, the centred
+  one is tried.
 * Place ``(u, v)`` in [0, 1]²: drive the base (at most 4 cm per action) to x = −0.15 m in line
   with the release spot, 0.12·(2u − 1) and 0.08·(2v − 1) m from the green bin's centre along
   its axes, move the held cube there at 0.6 m (about 3 cm above the bin's rim), and open; the
@@ -149,7 +151,7 @@ from kinder_gym.models.dynamic3d.tidybot import (
     place_operator,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.skills import Skill, SkillFailure
+from kinder_gym.skills import Skill
 
 TARGET_REGION = "target_bin_region"
 #: Handle centre in the scoop's body frame (the middle of the cup's back bottom edge, as
@@ -363,8 +365,8 @@ class PickCubeController(Dynamic3DController):
             shift = grasp_shift(self.context, state, cube, yaw)
             if shift is not None:
                 break
-        else:
-            raise SkillFailure("Pick: a neighbouring cube is between or under the pads")
+        else:  # none is clear: try the centred grasp (it may push the neighbour aside)
+            yaw, shift = square, np.zeros(2)
         c[:2] += shift
         quat = gripper_quat(yaw, PITCH_DOWN)
         goal = np.array([CUBE_BASE_X, c[1] + 0.1 * (2 * float(self.params[0]) - 1), 0.0])
