@@ -236,8 +236,10 @@ def test_seesaw_tips_under_an_off_centre_load_and_not_under_a_centred_one():
                 t = env.transition(t, np.zeros(11))[0]
             angles[where] = t.get(seesaw, "hinge_pos")
             assert env.goal_atoms(t)["on(large_block, beam_goal_region)"]
-        assert abs(angles[0.0]) < math.radians(2.0)
-        assert abs(angles[0.15]) > math.radians(5.0)
+        # Upstream's seesaw has no base plate: its beam tips until an end rests on the floor,
+        # about 2.4 degrees (measured 2.3 with this load), and stays level under a centred one.
+        assert abs(angles[0.0]) < math.radians(0.5)
+        assert abs(angles[0.15]) > math.radians(2.0)
     finally:
         env.close()
 
