@@ -286,20 +286,36 @@ def test_a_run_measured_before_its_env_followed_upstream_is_a_variant(
     results = results_from_csv(paths["csv"])
     bp = _at_protocol(next(r for r in results if r.agent == "bilevel_planning"))
     listed = sorted(load_pre_conformance())
-    assert listed and all(env != MOTION for _, env in listed)  # Motion2D-p0 did not change
-    run_id, env_id = next((r, e) for r, e in listed if e in PAPER_MAX_STEPS)
-    old = dataclasses.replace(_at_protocol(dataclasses.replace(bp, env_id=env_id)), run_id=run_id)
+    assert listed and all(env != MOTION for _, env, _ in listed)  # Motion2D-p0 did not change
+    run_id, env_id, summary = next(x for x in listed if x[1] in PAPER_MAX_STEPS)
+    old = dataclasses.replace(
+        _at_protocol(dataclasses.replace(bp, env_id=env_id)), run_id=run_id, summary=""
+    )
     assert protocol_deviations(old) == (PRE_CONFORMANCE,) and not at_paper_protocol(old)
-    # The same run id on another env, or another run on that env, is not listed.
+    from_file = dataclasses.replace(old, summary=summary)
+    assert protocol_deviations(from_file) == (PRE_CONFORMANCE,)
+    # The same run id on another env, another run on that env, or the same run made again on
+    # the changed env (same run id, another summary file) is not listed.
     assert PRE_CONFORMANCE not in protocol_deviations(dataclasses.replace(old, run_id="0" * 12))
-    header = "run_id,env_id,changed_at\n"
-    assert parse_pre_conformance(header + "# a comment\nabc,kinder/X-v0,78dd850\n") == {
-        ("abc", "kinder/X-v0")
+    again = dataclasses.replace(old, summary="bp_conforming_summary.csv")
+    assert PRE_CONFORMANCE not in protocol_deviations(again)
+    header = "run_id,env_id,changed_at,summary\n"
+    assert parse_pre_conformance(header + "# a comment\nabc,kinder/X-v0,78dd850,a.csv\n") == {
+        ("abc", "kinder/X-v0", "a.csv")
     }
     with pytest.raises(ValueError, match="expected the header"):
         parse_pre_conformance("run,env\n")
     with pytest.raises(ValueError, match="data row 1"):
-        parse_pre_conformance(header + "abc,kinder/X-v0\n")
+        parse_pre_conformance(header + "abc,kinder/X-v0,78dd850\n")
+    # Every listed row is in the summary file it names.
+    from kinder_bench.reporting.results_doc import summary_files
+
+    held = {
+        (r.run_id, r.env_id, r.summary)
+        for f in summary_files(REPO / "benchmarks" / "results")
+        for r in results_from_csv(f)
+    }
+    assert set(listed) <= held, sorted(set(listed) - held)
 
 
 def test_the_paper_settings_file_is_checked() -> None:

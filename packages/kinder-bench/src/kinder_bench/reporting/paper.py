@@ -171,6 +171,8 @@ class Result:
     provenance: str = ""
     """Where a row not made from a run directory comes from (``transcribed from rl.md @ 39c729e``);
     empty for rows the runner wrote."""
+    summary: str = ""
+    """The name of the summary file the row was read from (empty: not read from one)."""
 
     @property
     def name(self) -> str:
@@ -263,6 +265,7 @@ def results_from_csv(path: Path | str) -> list[Result]:
                     agent_args=json.loads(row["agent_args"]) if row.get("agent_args") else None,
                     training=row.get("training", "") or "",
                     provenance=row.get("provenance", "") or "",
+                    summary=path.name,
                 )
             )
         except (KeyError, ValueError) as e:
@@ -356,37 +359,47 @@ def paper_settings(agent: str, env_id: str, settings: Settings | None = None) ->
 
 
 PRE_CONFORMANCE_FILE = "pre_conformance_runs.csv"
-_PRE_CONFORMANCE_COLUMNS = ("run_id", "env_id", "changed_at")
+_PRE_CONFORMANCE_COLUMNS = ("run_id", "env_id", "changed_at", "summary")
 
 
 def parse_pre_conformance(
     text: str, source: str = PRE_CONFORMANCE_FILE
-) -> frozenset[tuple[str, str]]:
-    """The (run id, env id) pairs of a pre-conformance list (``#`` lines are comments).
+) -> frozenset[tuple[str, str, str]]:
+    """The (run id, env id, summary file) triples of a pre-conformance list (``#`` lines are
+    comments).
 
     Raises ValueError naming the line when a row lacks a field or the header is not
-    ``run_id,env_id,changed_at``.
+    ``run_id,env_id,changed_at,summary``.
     """
     lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
     rows = list(csv.reader(lines))
+    header = ",".join(_PRE_CONFORMANCE_COLUMNS)
     if not rows or tuple(rows[0]) != _PRE_CONFORMANCE_COLUMNS:
-        raise ValueError(f"{source}: expected the header {','.join(_PRE_CONFORMANCE_COLUMNS)}")
+        raise ValueError(f"{source}: expected the header {header}")
     out = set()
     for n, row in enumerate(rows[1:], start=2):
         if len(row) != len(_PRE_CONFORMANCE_COLUMNS) or not all(f.strip() for f in row):
-            raise ValueError(
-                f"{source}: data row {n - 1}: expected run_id,env_id,changed_at, got {row}"
-            )
-        out.add((row[0].strip(), row[1].strip()))
+            raise ValueError(f"{source}: data row {n - 1}: expected {header}, got {row}")
+        out.add((row[0].strip(), row[1].strip(), row[3].strip()))
     return frozenset(out)
 
 
 @functools.cache
-def load_pre_conformance() -> frozenset[tuple[str, str]]:
+def load_pre_conformance() -> frozenset[tuple[str, str, str]]:
     """Committed runs measured on an env that has changed since, to follow upstream (the
     package's data file says which and why)."""
     data = resources.files("kinder_bench.data").joinpath(PRE_CONFORMANCE_FILE)
     return parse_pre_conformance(data.read_text(encoding="utf-8"))
+
+
+def measured_before_conformance(result: Result) -> bool:
+    """Whether ``result`` is a listed pre-conformance run: its run id and env, and, for a row
+    read from a summary file, that file (a re-run on the changed env shares the run id)."""
+    return any(
+        (run_id, env_id) == (result.run_id, result.env_id)
+        and (not result.summary or summary == result.summary)
+        for run_id, env_id, summary in load_pre_conformance()
+    )
 
 
 #: How :func:`protocol_deviations` names a run measured before its env followed upstream.
@@ -442,7 +455,7 @@ def protocol_deviations(result: Result, settings: Settings | None = None) -> tup
         out.append(f"training {result.training}" if result.training else "training not recorded")
     if result.provenance:
         out.append("transcribed")
-    if (result.run_id, result.env_id) in load_pre_conformance():
+    if measured_before_conformance(result):
         out.append(PRE_CONFORMANCE)
     return tuple(out)
 
