@@ -2,8 +2,8 @@
 settling resets, feature bounds and rendering.
 
 A family subclasses :class:`Dynamic2DEnv`, builds its objects and a :class:`~.physics.Scene` in
-``__init__``, and implements ``_sample_unsettled(rng)`` (the objects before settling),
-``goal_reached`` and, optionally, ``_draw_extras``.
+``__init__``, and implements ``_sample_initial_state(rng)`` (in upstream's draw order, settled
+with its PD controller), ``_pd_specs``, ``goal_reached`` and, optionally, ``_draw_extras``.
 """
 
 from __future__ import annotations
@@ -327,29 +327,14 @@ class Dynamic2DEnv(ObjectCentricEnv):
 
     # -- family hooks --------------------------------------------------------------------------
     @abc.abstractmethod
-    def _sample_unsettled(self, rng: np.random.Generator) -> ObjectCentricState:
-        """A sample of the objects before settling (family-specific)."""
-
-    def _accept_settled(self, state: ObjectCentricState) -> bool:
-        """Whether a settled sample is a valid initial state (e.g. the goal does not hold)."""
-        return not self.goal_reached(state)
+    def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
+        """A valid initial state drawn from ``rng``, in upstream's draw order (family-specific:
+        the families draw and settle their objects differently)."""
 
     def _draw_extras(self, canvas: Canvas, state: ObjectCentricState) -> None:
         """Family-specific drawing under the objects (targets, goal outlines)."""
 
     # -- sampling ------------------------------------------------------------------------------
-    def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
-        cfg = self.config
-        for _ in range(max(1, cfg.max_reset_tries // 100)):
-            state = self._sample_unsettled(rng)
-            self.settle(state)
-            if self._physically_valid(state.data) and self._accept_settled(state):
-                return state
-        raise RuntimeError(
-            f"{type(self).__name__}: could not sample a valid settled initial state "
-            f"(every settled sample was invalid or already satisfied the goal)"
-        )
-
     def settle(self, state: ObjectCentricState) -> int:
         """Let the objects of ``state`` come to rest in place (robot still); velocities are then
         zeroed. Returns the substeps simulated."""

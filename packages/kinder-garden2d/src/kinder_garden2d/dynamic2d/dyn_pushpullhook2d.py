@@ -188,9 +188,6 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
             (cfg.world_min_y + cfg.world_max_y) / 6,
         )
 
-    def _sample_unsettled(self, rng: np.random.Generator) -> ObjectCentricState:
-        raise NotImplementedError("DynPushPullHook2D samples objects one by one")
-
     def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
         """The robot, then the target and hook together, then each obstruction (a Gaussian
         around the target), each redrawn until it collides with nothing, then upstream's settling.

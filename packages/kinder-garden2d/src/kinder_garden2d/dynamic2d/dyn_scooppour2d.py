@@ -198,9 +198,6 @@ class DynScoopPour2DEnv(Dynamic2DEnv):
     def box_objects(self) -> list[Object]:
         return [self.robot, self.hook, *self.smalls]
 
-    def _sample_unsettled(self, rng: np.random.Generator) -> ObjectCentricState:
-        raise NotImplementedError("DynScoopPour2D draws the robot once, then the rest")
-
     def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
         """Upstream's sampling: the robot once, then the hook and every small object (left of
         the wall, overlapping freely) until the robot overlaps neither the hook nor a wall; then
