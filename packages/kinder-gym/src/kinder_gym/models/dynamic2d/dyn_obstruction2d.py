@@ -33,7 +33,7 @@ mismatch, and that obstruction's own ``ClearSurface`` is skipped (o3's first pla
 of 50 episodes solved). What still fails: blocks with no room even for leaning fingers, and pushes
 that move another block the wrong way (the target, or an obstruction back onto the surface). The
 chain pushes and the gripper-base clearance above neighbours raised o3's first planning call from 20
-to 32 of 50 episodes solved, o1's from 37 to 42 (``benchmarks/bp_failure_causes.py``).
+to 32 of 50 episodes solved, o1's from 37 to 42 (``benchmarks/probes/bp_failure_causes.py``).
 
 Concepts:
 

@@ -43,7 +43,7 @@ parameter sample's success on 20–40 seeded o10 instances from 6/20 to 29/30 (o
 o30 1/20 → 11/30). o50 needs 25 objects, about three full trips, and stays limited by the step
 budget; in its high pile the robot can wedge itself, which is what the stuck-trip failure is for.
 The lift of step 5 is diagonal (rather than straight up, then right), about 30 actions
-less per trip; one parameter sample on seeds 0–9 (``benchmarks/skill_success.py scoop``): o10
+less per trip; one parameter sample on seeds 0–9 (``benchmarks/probes/skill_success.py scoop``): o10
 9/10 before and after, o30 6/10 → 9/10, o50 0/10 → 1/10. Pouring nearer the wall (x = 2.35)
 was tried and lost objects (7–11 instead of 17 on the right after three trips): not adopted.
 """

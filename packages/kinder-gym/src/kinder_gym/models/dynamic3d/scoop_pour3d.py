@@ -52,7 +52,7 @@ a loaded 2-core machine) solved 3 of 5 o10 episodes (the other two ran out of th
 solved episode used 993 of its 1000 steps).
 
 Why the skills are as they are (measured with the earlier 5 mm cubes; planner-free, every cube in
-turn, ``benchmarks/skill_success.py pour --seeds 0-11``): before, 8 of 12 seeds were solved
+turn, ``benchmarks/probes/skill_success.py pour --seeds 0-11``): before, 8 of 12 seeds were solved
 (Pick 102 of 113 tries reached its prediction, Place 101 of 104); with the three changes
 below, 12 of 12 (Pick 120 of 121, Place 120 of 120).
 
@@ -104,7 +104,7 @@ about the handle) the grasp held the scoop on seed 0 (86 steps), and a stroke wa
 from it: cup tipped 100-105° about the handle, lip lowered to 2 mm above the bin floor, dragged
 10-14 cm away from the robot through the cubes, then turned back to 20° in 20° steps pivoting on
 the lip (with or without moving on 1.5-3 cm per step). In all three tries
-(``benchmarks/scoop_pour3d_probe.py --seed 0 --tip 100 --drag 0.14``, and ``--tip 105 --drag
+(``benchmarks/probes/scoop_pour3d_probe.py --seed 0 --tip 100 --drag 0.14``, and ``--tip 105 --drag
 0.10`` with ``--forward 0.015`` or ``0.03``) no cube got into the cup (its centre 2 mm or more
 inside the rim's plane) at any stage; 1-2 cubes rode along at the mouth, their centres within 5
 mm of that plane, and were left behind as the cup turned back. A stroke that fills the cup (e.g.

@@ -42,7 +42,7 @@ Version notes:
   the carry height during the Place's), instead of retracting first and reaching or lifting
   after; from where a Place leaves the arm, the IK solution seeded from the current joints is
   used when it is nearer than READY's (that one was often a 3 rad wrist flip away, 60 steps).
-  Planner-free, every cube in turn (``benchmarks/skill_success.py shelf --env
+  Planner-free, every cube in turn (``benchmarks/probes/skill_success.py shelf --env
   kinder/Shelf3D-o8-v0 --seeds 0-5``): 4,307 actions for the 36 cubes placed, about 120 per
   cube; 36 of 42 Pick and 36 of 36 Place tries reached their predictions (a Pick of a cube
   touching another closes on both). At the env's full base speed while the hand rose, 1 of 24
@@ -52,7 +52,7 @@ Version notes:
   among eight evenly spaced spots and the hand opens only to 4.7 cm on the shelf (the spacing
   check drops from 6 to 5 cm). Measured in ``benchmarks/results/bilevel_planning.md``.
 * Contact update (the env's elliptic friction cones and ``impratio`` 10): a held cube no longer
-  creeps out of the pads (0.9 → 0.05 mm/s, ``benchmarks/grasp_slip.py``). Three settings chosen
+  creeps out of the pads (0.9 → 0.05 mm/s, ``benchmarks/probes/grasp_slip.py``). Three settings chosen
   against that slip were simplified: the fingers close 2 cm above the floor (was 1.6 cm, deeper
   into the pads), the cube is carried 4 cm above the shelf (was 7 cm) and the base drives at the
   env's full speed while carrying (was 0.06 m and 0.06 rad per action). Measured without them

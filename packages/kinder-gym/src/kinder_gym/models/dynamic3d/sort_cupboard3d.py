@@ -64,7 +64,7 @@ Limits:
 
 * The whole task does not fit in 1000 steps, the limit every Dynamic3D id had: every object
   is fetched from the floor, about 90 actions per cube and 170 per rod with these skills, so
-  1,267–1,456 in all on seeds 0–9 (``benchmarks/skill_success.py cupboard``). The variant's
+  1,267–1,456 in all on seeds 0–9 (``benchmarks/probes/skill_success.py cupboard``). The variant's
   limit is therefore 2500 (``benchmarks/results/step_limits.md``: 1.5 × the most actions the
   skills took, rounded up to 500; upstream registers no limit); BP's results at 1000, 2000
   and 2500 steps are in ``benchmarks/results/bilevel_planning.md``. Fitting 1000 would need

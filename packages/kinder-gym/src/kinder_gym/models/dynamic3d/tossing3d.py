@@ -12,7 +12,7 @@ Why this model does not toss (measured, this env): the bundled Tossing3D action 
 upstream kindergarden 0.2.5) and the arm tracks joint targets at most 0.1 rad ahead of the
 measured angles, so a joint turns at about 0.4–0.6 rad/s and the base drives at 0.87 m/s. The
 fastest pinch-point motion found (base driving at full speed while joints 2, 4 and 6 swing at
-full speed; ``python benchmarks/tossing_speed.py``) is 1.33 m/s, and a cube released at that
+full speed; ``python benchmarks/speed/tossing_speed.py``) is 1.33 m/s, and a cube released at that
 speed from 1 m flies at most 0.63 m (measured with the earlier 2.5 cm cubes and bin placement);
 a toss from behind the barrier is not what this model does. (Upstream's tossing skill used its
 older 18-D action with unbounded joint-velocity targets.) What the env does allow, and the model
@@ -69,7 +69,7 @@ orientation (the grasp approaches along a face of the measured yaw).
 
 Limits (measured on the earlier scene: 2.5 cm cubes, a 3 cm × 5 m × 10 cm barrier, walls, the
 bin at x ∈ [2.6, 3.42]): planner-free, each skill with up to 3 samples in a fixed order and no time
-budget (``python benchmarks/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 0-9``),
+budget (``python benchmarks/probes/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 0-9``),
 Topple reached its prediction in 10 of 13 tries, Pick in 13 of 26 and Drop in 11 of 22 (the
 failures include cheap refusals of blocked straight base paths), and 5 of the 10 episodes were
 solved. What fails: descents that stall against the cube, cubes landing beside the bin, and the
