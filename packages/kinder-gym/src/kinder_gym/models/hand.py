@@ -1,8 +1,10 @@
-"""The hand's pick and place operators, shared by the planning models of every robot kind.
+"""The hand's operators, shared by the planning models of every robot kind.
 
 A model's hand has ``HandEmpty(robot)`` and ``Holding(robot, item)`` predicates (each robot base
 builds them for its robot type); picking and placing change them the same way in every family,
-whatever else (the source or target of the item) they need and change.
+whatever else (the source or target of the item) they need and change. The robot's moves that
+need the hand empty and leave it so (a push, a press, opening a drawer) are
+:func:`empty_hand_operator`.
 """
 
 from __future__ import annotations
@@ -58,4 +60,25 @@ def place_operator(
     )
 
 
-__all__: Sequence[str] = ["pick_operator", "place_operator"]
+def empty_hand_operator(
+    name: str,
+    hand_empty: Predicate,
+    params: Sequence[Variable],
+    pre: Sequence[LiftedAtom],
+    add: Sequence[LiftedAtom],
+    delete: Sequence[LiftedAtom] = (),
+) -> LiftedOperator:
+    """``name(?robot, *params)``, ``?robot`` of ``hand_empty``'s type: with the hand empty and
+    ``pre`` true, the robot itself makes ``add`` true and ``delete`` false; the hand stays
+    empty."""
+    r = Variable("?robot", hand_empty.types[0])
+    return LiftedOperator(
+        name,
+        (r, *params),
+        frozenset({hand_empty.lift([r]), *pre}),
+        frozenset(add),
+        frozenset(delete),
+    )
+
+
+__all__: Sequence[str] = ["empty_hand_operator", "pick_operator", "place_operator"]

@@ -69,34 +69,30 @@ from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.dynamic3d.assets import OBJECT_TYPES
-from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE, SEESAW_TYPE
 from kinder_garden3d.dynamic3d.taskfile import TaskSpec
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models import hand
 from kinder_gym.models.dynamic3d.tidybot import (
     CUBE_CLEARANCE,
-    GRIP_STEPS,
-    HOME,
     PITCH,
-    READY,
+    Dynamic3DContext,
     Dynamic3DController,
-    Segment,
+    FloorPickController,
     SegmentSource,
     arm_joints,
     base_pose,
-    gripper_quat,
+    grip_segment,
     hand_predicates,
     hand_state,
-    ik_near,
     line_segments,
     pick_operator,
     pinch_position,
     segment_point_distance,
     segment_rect_distance,
 )
-from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.operators import LiftedOperator
+from kinder_gym.motion_planning import FloatArray
 from kinder_gym.skills import Skill, SkillFailure
 
 GOAL_REGION = "beam_goal_region"
@@ -123,11 +119,9 @@ G = 9.81
 
 
 @dataclass(frozen=True)
-class BalanceContext:
+class BalanceContext(Dynamic3DContext):
     """What the BalanceBeam3D controllers need besides the state."""
 
-    env: ObjectCentricEnv
-    robot: Object
     seesaw: Object
     blocks: tuple[Object, ...]
     masses: dict[Object, float]
@@ -217,60 +211,31 @@ def _route(
     raise SkillFailure("no clear straight or one-waypoint base path")
 
 
-class PickController(Dynamic3DController):
+class PickController(FloorPickController):
     """Pick a block off the floor. Objects: ``(robot, block)``."""
 
-    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
     params_doc = (
         "(dist, angle): the base stops 0.50 + 0.10·dist metres short of the block, approaching "
         "along the block face nearest to the heading (angle − 0.5)·π/2 radians off the one "
         "towards the seesaw."
     )
+    grasp_back = 0.003
+    lift_z = CARRY_Z
 
-    hand_must_be = "open"
-
-    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+    def wanted_heading(self, state: ObjectCentricState, obj: Object) -> float:
         ctx: BalanceContext = self.context
-        robot, block = self.objects
-        dist = 0.50 + 0.10 * float(self.params[0])
-        c = np.array([state.get(block, "x"), state.get(block, "y")])
+        c = np.array([state.get(obj, "x"), state.get(obj, "y")])
         towards = np.array([state.get(ctx.seesaw, "x"), state.get(ctx.seesaw, "y")]) - c
-        wanted = math.atan2(towards[1], towards[0]) + (float(self.params[1]) - 0.5) * math.pi / 2
-        block_yaw = quat_yaw(np.asarray(state[block][3:7]))
-        k = round((wanted - block_yaw) / (math.pi / 2))
-        heading = wrap_angle(block_yaw + k * math.pi / 2)
-        direction = np.array([math.cos(heading), math.sin(heading)])
-        goal = np.array([*(c - dist * direction), heading])
-        route = _route(ctx, state, block, goal)
-        quat = gripper_quat(heading, PITCH)
-        size = float(state.get(block, "bb_z"))
-        # The pinch point closes 0.75 of the way up the block (at least 2 cm up, where the
-        # pitched fingertips clear the floor), above the block's measured position: the chassis
-        # may nudge a block on the way (closed loop).
-        grasp_z = max(GRASP_MIN_Z, 0.75 * size)
+        return math.atan2(towards[1], towards[0]) + (float(self.params[1]) - 0.5) * math.pi / 2
 
-        def _at(s: ObjectCentricState, back: float, z: float) -> FloatArray:
-            here = np.array([s.get(block, "x"), s.get(block, "y")])
-            return np.array([*(here - back * direction), z])
+    def route(self, state: ObjectCentricState, goal: FloatArray) -> list[FloatArray]:
+        """Round the blocks on the floor and the seesaw (:func:`_route`)."""
+        return _route(self.context, state, self.objects[1], goal)
 
-        def reach_above(s: ObjectCentricState) -> list[SegmentSource]:
-            q = ik_near(_at(s, 0.01, 0.15), quat, base_pose(s, robot), READY)
-            return [_arm_segment(q)]
-
-        def descend(s: ObjectCentricState) -> list[SegmentSource]:
-            return list(line_segments(s, robot, _at(s, 0.003, grasp_z), heading, PITCH, 0.0))
-
-        def lift(s: ObjectCentricState) -> list[SegmentSource]:
-            here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
-            target = np.array([here[0], here[1], CARRY_Z])
-            return list(line_segments(s, robot, target, heading, PITCH, 1.0, spacing=0.06))
-
-        plan: list[SegmentSource] = []
-        if np.abs(arm_joints(state, robot) - HOME).max() > 0.05:
-            plan.append(_arm_segment(HOME, 0.05))
-        plan += [self.drive(p, HOME, 0.0, 0.03) for p in route[:-1]]
-        plan += [self.drive(goal, HOME, 0.0, 0.01), reach_above, descend, _grip(1.0), lift]
-        return plan
+    def grasp_z(self, state: ObjectCentricState, obj: Object) -> float:
+        """0.75 of the way up the block, at least :data:`GRASP_MIN_Z` (where the pitched
+        fingertips clear the floor)."""
+        return max(GRASP_MIN_Z, 0.75 * float(state.get(obj, "bb_z")))
 
 
 class PlaceController(Dynamic3DController):
@@ -318,15 +283,7 @@ class PlaceController(Dynamic3DController):
             return list(line_segments(s, robot, target, heading, PITCH, 0.0, spacing=0.04))
 
         drives: list[SegmentSource] = [self.drive(p, arm, 1.0, 0.03) for p in route[:-1]]
-        return [*drives, self.drive(goal, arm, 1.0, 0.01), lower, _grip(0.0), retreat]
-
-
-def _arm_segment(q: FloatArray, tol: float = 0.01) -> SegmentSource:
-    return Segment(arm=tuple(float(v) for v in q), arm_tol=tol, max_steps=80)
-
-
-def _grip(command: float) -> SegmentSource:
-    return Segment(gripper=command, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
+        return [*drives, self.drive(goal, arm, 1.0, 0.01), lower, grip_segment(0.0), retreat]
 
 
 def _params(task: TaskSpec, name: str) -> dict[str, Any]:
@@ -369,16 +326,11 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(OnBeam.ground([b, seesaw]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
     b = Variable("?block", MOVABLE_TYPE)
     s = Variable("?seesaw", SEESAW_TYPE)
     pick = pick_operator(b, OnGround)
-    place = LiftedOperator(
-        "Place",
-        (r, b, s),
-        frozenset({Holding.lift([r, b]), Balanced.lift([s])}),
-        frozenset({HandEmpty.lift([r]), OnBeam.lift([b, s])}),
-        frozenset({Holding.lift([r, b])}),
+    place = hand.place_operator(
+        "Place", HandEmpty, Holding, b, [OnBeam.lift([b, s])], [Balanced.lift([s])], params=[s]
     )
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:

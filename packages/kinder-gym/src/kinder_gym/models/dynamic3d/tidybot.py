@@ -17,7 +17,9 @@ joints). Imports kinder_garden3d (the ``[3d]`` extra).
 This is the mobile manipulator's base module, which every Dynamic3D planning model imports (never
 a sibling model): the robot's constants (gripper closure, grasp pitch, ready pose, chassis size),
 base-path geometry (:func:`segment_point_distance`, :func:`segment_rect_distance`), the drive
-(:meth:`Dynamic3DController.drive`), the top-down moves with the base fixed
+(:meth:`Dynamic3DController.drive`), the context every controller gets
+(:class:`Dynamic3DContext`), the side grasp of an object on the floor (:func:`face_heading`,
+:func:`grasp_and_lift`, :class:`FloorPickController`), the top-down moves with the base fixed
 (:class:`TopDownController`) and the hand's predicates (:func:`hand_predicates`).
 """
 
@@ -30,8 +32,9 @@ from dataclasses import dataclass, replace
 from typing import Literal, TypeAlias
 
 import numpy as np
+from gymnasium import spaces
 
-from kinder_core import Object, ObjectCentricState, Type
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, Type
 from kinder_garden3d.dynamic3d.env import HOME_ARM
 from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.dynamic3d.object_types import FIXTURE_TYPE, MOVABLE_TYPE, ROBOT_TYPE
@@ -118,6 +121,14 @@ def grasp_yaws(state: ObjectCentricState, obj: Object, heading: float) -> list[f
     yaw = quat_yaw(np.asarray(state[obj][3:7]))
     cands = [wrap_angle(yaw + k * math.pi / 2) for k in range(4)]
     return sorted(cands, key=lambda c: abs(wrap_angle(c - heading)))
+
+
+def face_heading(state: ObjectCentricState, obj: Object, wanted: float) -> float:
+    """The heading facing one of the object's four side faces (the object's yaw plus a multiple
+    of π/2) nearest to ``wanted``: the gripper then closes across that face."""
+    yaw = quat_yaw(np.asarray(state[obj][3:7]))
+    k = round((wanted - yaw) / (math.pi / 2))
+    return wrap_angle(yaw + k * math.pi / 2)
 
 
 def segment_point_distance(a: FloatArray, b: FloatArray, p: FloatArray) -> float:
@@ -281,6 +292,21 @@ class Segment:
 SegmentSource: TypeAlias = "Segment | Callable[[ObjectCentricState], Sequence[SegmentSource]]"
 
 
+def grip_segment(command: float, min_steps: int = GRIP_STEPS) -> Segment:
+    """A segment that sets the gripper to ``command`` (1 closes, 0 opens) for at least
+    ``min_steps`` steps with the base and the arm held where they are."""
+    return Segment(gripper=command, arm_tol=1.0, base_tol=1.0, min_steps=min_steps)
+
+
+@dataclass(frozen=True)
+class Dynamic3DContext:
+    """What every Dynamic3D controller needs besides the state: the env (its regions, task file
+    and goal atoms) and the robot. A family's context adds its own objects."""
+
+    env: ObjectCentricEnv
+    robot: Object
+
+
 def line_segments(
     state: ObjectCentricState,
     robot: Object,
@@ -322,6 +348,31 @@ def line_segments(
         tol = final_tol if k == n else arm_tol
         segments.append(Segment(arm=tuple(q), gripper=gripper, arm_tol=tol))
     return segments
+
+
+def grasp_and_lift(
+    robot: Object,
+    heading: float,
+    grasp: FloatArray | Callable[[ObjectCentricState], FloatArray],
+    lift_z: float,
+    spacing: float,
+) -> list[SegmentSource]:
+    """The end of a side grasp, with the gripper heading ``heading`` and pitched :data:`PITCH`
+    down: descend along a straight line to the pinch point ``grasp`` (a point, or a function of
+    the state the descent starts in, to follow an object the chassis may have nudged), close the
+    hand, and lift the pinch point straight up to the height ``lift_z`` (an IK waypoint every
+    ``spacing`` metres)."""
+
+    def descend(s: ObjectCentricState) -> list[Segment]:
+        point = grasp(s) if callable(grasp) else grasp
+        return line_segments(s, robot, point, heading, PITCH, 0.0)
+
+    def lift(s: ObjectCentricState) -> list[Segment]:
+        here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
+        target = np.array([here[0], here[1], lift_z])
+        return line_segments(s, robot, target, heading, PITCH, 1.0, spacing=spacing)
+
+    return [descend, grip_segment(1.0), lift]
 
 
 def drive_segment(
@@ -414,6 +465,13 @@ class Dynamic3DController(Controller):
         assert state is not None
         return drive_segment(state, self.robot, goal, arm, gripper, tol, speed)
 
+    def retract(self, state: ObjectCentricState) -> list[SegmentSource]:
+        """The move of the arm to :data:`HOME`, the pose it drives in; nothing when every joint
+        is within 0.05 rad of it."""
+        if np.abs(arm_joints(state, self.robot) - HOME).max() > 0.05:
+            return [Segment(arm=tuple(float(v) for v in HOME), arm_tol=0.05, max_steps=80)]
+        return []
+
     def _advance(self, state: ObjectCentricState) -> None:
         """Pop segments until one is not yet reached (expanding lazy ones)."""
         while True:
@@ -478,6 +536,68 @@ class Dynamic3DController(Controller):
 
     def terminated(self) -> bool:
         return self._done
+
+
+class FloorPickController(Dynamic3DController):
+    """Pick an object off the floor from the side. Objects: ``(robot, obj)``.
+
+    Retract the arm, drive (through :meth:`route`) to stand 0.50 + 0.10·``params[0]`` metres
+    short of the object, facing the side face nearest to :meth:`wanted_heading`; reach above the
+    object's measured position (the chassis may nudge it on the way) and :func:`grasp_and_lift`
+    it at :meth:`grasp_z` to :attr:`lift_z`. A family says what the other parameters mean."""
+
+    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
+    hand_must_be = "open"
+    #: Distance (m) short of the object's centre, along the heading, where the fingers close.
+    grasp_back = 0.005
+    #: Height (m) to which the pinch point lifts the object.
+    lift_z = 0.15
+    #: Base tolerance (m, rad) at the waypoints of the route before its end.
+    via_tol = 0.03
+
+    @abc.abstractmethod
+    def wanted_heading(self, state: ObjectCentricState, obj: Object) -> float:
+        """The heading (rad) the base should approach the object along, roughly."""
+
+    def route(self, state: ObjectCentricState, goal: FloatArray) -> list[FloatArray]:
+        """The base poses to drive through, ending at ``goal`` (raise SkillFailure when no
+        route is clear): straight there."""
+        del state
+        return [goal]
+
+    def grasp_z(self, state: ObjectCentricState, obj: Object) -> float:
+        """Height (m) of the pinch point when the fingers close."""
+        del state, obj
+        return GRASP_Z
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        robot, obj = self.objects[:2]
+        dist = 0.50 + 0.10 * float(self.params[0])
+        heading = face_heading(state, obj, self.wanted_heading(state, obj))
+        direction = np.array([math.cos(heading), math.sin(heading)])
+        c = np.array([state.get(obj, "x"), state.get(obj, "y")])
+        goal = np.array([*(c - dist * direction), heading])
+        route = self.route(state, goal)
+        quat = gripper_quat(heading, PITCH)
+        grasp_z = self.grasp_z(state, obj)
+
+        def _at(s: ObjectCentricState, back: float, z: float) -> FloatArray:
+            here = np.array([s.get(obj, "x"), s.get(obj, "y")])
+            return np.array([*(here - back * direction), z])
+
+        def reach_above(s: ObjectCentricState) -> list[Segment]:
+            q = ik_near(_at(s, 0.01, 0.15), quat, base_pose(s, robot), READY)
+            return [Segment(arm=tuple(float(v) for v in q), arm_tol=0.01, max_steps=80)]
+
+        return [
+            *self.retract(state),
+            *(self.drive(p, HOME, 0.0, self.via_tol) for p in route[:-1]),
+            self.drive(goal, HOME, 0.0, 0.01),
+            reach_above,
+            *grasp_and_lift(
+                robot, heading, lambda s: _at(s, self.grasp_back, grasp_z), self.lift_z, 0.06
+            ),
+        ]
 
 
 class TopDownController(Dynamic3DController):
@@ -546,7 +666,9 @@ __all__ = [
     "READY",
     "RELEASE",
     "TRAVEL_Z",
+    "Dynamic3DContext",
     "Dynamic3DController",
+    "FloorPickController",
     "Segment",
     "TopDownController",
     "arm_joints",
@@ -554,7 +676,10 @@ __all__ = [
     "base_pose",
     "drive_reach_segment",
     "drive_segment",
+    "face_heading",
+    "grasp_and_lift",
     "grasp_yaws",
+    "grip_segment",
     "gripper_quat",
     "hand_predicates",
     "ik_near",

@@ -38,8 +38,9 @@ Operators: ``Topple(?robot, ?barrier)`` (pre HandEmpty, Upright; add Toppled; de
 Holding) and ``DropOver(?robot, ?cube, ?bin, ?barrier)`` (pre Holding, Upright; the same
 effects). Goal: every cube InBin.
 
-Skills (segment following of :mod:`kinder_gym.models.dynamic3d.tidybot`; Pick reuses Shelf3D's
-grasp constants and reach-above / descend / close / lift sequence):
+Skills (segment following of :mod:`kinder_gym.models.dynamic3d.tidybot`; Pick is the mobile
+manipulator's :class:`~kinder_gym.models.dynamic3d.tidybot.FloorPickController`: reach above,
+descend, close, lift):
 
 * Topple: retract the arm, drive sideways to a sampled lane y (clear of the cubes), turn to
   face +x, and drive straight through the barrier to 0.8 m beyond it.
@@ -69,7 +70,8 @@ orientation (the grasp approaches along a face of the measured yaw).
 
 Limits (measured on the earlier scene: 2.5 cm cubes, a 3 cm × 5 m × 10 cm barrier, walls, the
 bin at x ∈ [2.6, 3.42]): planner-free, each skill with up to 3 samples in a fixed order and no time
-budget (``python benchmarks/probes/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 0-9``),
+budget
+(``python benchmarks/probes/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 0-9``),
 Topple reached its prediction in 10 of 13 tries, Pick in 13 of 26 and Drop in 11 of 22 (the
 failures include cheap refusals of blocked straight base paths), and 5 of the 10 episodes were
 solved. What fails: descents that stall against the cube, cubes landing beside the bin, and the
@@ -104,30 +106,29 @@ from kinder_garden3d.dynamic3d.geometry import quat_to_matrix, quat_yaw
 from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models import hand
 from kinder_gym.models.dynamic3d.tidybot import (
     CHASSIS_RADIUS,
-    GRASP_Z,
     GRIP_STEPS,
     HOME,
-    PITCH,
-    READY,
+    Dynamic3DContext,
     Dynamic3DController,
+    FloorPickController,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
-    gripper_quat,
+    grip_segment,
     hand_predicates,
     hand_state,
-    ik_near,
     line_segments,
     pick_operator,
     pinch_position,
     segment_point_distance,
     segment_rect_distance,
 )
-from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.operators import GroundOperator, LiftedOperator
+from kinder_gym.motion_planning import FloatArray
+from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 GOAL_REGION = "blocks_goal_region"
@@ -160,11 +161,9 @@ TOPPLED_COS = math.cos(math.radians(70.0))
 
 
 @dataclass(frozen=True)
-class TossContext:
+class TossContext(Dynamic3DContext):
     """What the Tossing3D controllers need besides the state."""
 
-    env: ObjectCentricEnv
-    robot: Object
     barrier: Object
     bin: Object
     cubes: tuple[Object, ...]
@@ -213,14 +212,7 @@ def _path_clear(
     return True
 
 
-class _TossController(Dynamic3DController):
-    def retract(self, state: ObjectCentricState) -> list[SegmentSource]:
-        if np.abs(arm_joints(state, self.robot) - HOME).max() > 0.05:
-            return [Segment(arm=tuple(HOME), arm_tol=0.05, max_steps=80)]
-        return []
-
-
-class ToppleController(_TossController):
+class ToppleController(Dynamic3DController):
     """Drive the base through the barrier so that it topples. Objects: ``(robot, barrier)``."""
 
     params_space = spaces.Box(0.0, 1.0, (1,), dtype=np.float64)
@@ -249,60 +241,28 @@ class ToppleController(_TossController):
         ]
 
 
-class PickController(_TossController):
+class PickController(FloorPickController):
     """Pick a cube off the floor and lift it to the carry height. Objects: ``(robot, cube)``."""
 
-    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
     params_doc = (
         "(dist, heading): the base stops 0.50 + 0.10·dist metres short of the cube, approaching "
         "along the cube face nearest to the world heading (2·heading − 1)·π radians."
     )
+    lift_z = CARRY_Z
 
-    hand_must_be = "open"
+    def wanted_heading(self, state: ObjectCentricState, obj: Object) -> float:
+        del state, obj
+        return (2.0 * float(self.params[1]) - 1.0) * math.pi
 
-    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
-        ctx: TossContext = self.context
+    def route(self, state: ObjectCentricState, goal: FloatArray) -> list[FloatArray]:
+        """Straight, clear of the bin and of the other cubes on the floor."""
         robot, cube = self.objects
-        dist = 0.50 + 0.10 * float(self.params[0])
-        wanted = (2.0 * float(self.params[1]) - 1.0) * math.pi
-        c = _xy(state, cube)
-        cube_yaw = quat_yaw(np.asarray(state[cube][3:7]))
-        k = round((wanted - cube_yaw) / (math.pi / 2))
-        heading = wrap_angle(cube_yaw + k * math.pi / 2)
-        direction = np.array([math.cos(heading), math.sin(heading)])
-        goal = np.array([*(c - dist * direction), heading])
-        if not _path_clear(ctx, state, base_pose(state, robot)[:2], goal[:2], cube):
+        if not _path_clear(self.context, state, base_pose(state, robot)[:2], goal[:2], cube):
             raise SkillFailure("Pick: the straight base path is blocked")
-        quat = gripper_quat(heading, PITCH)
-
-        def _at(s: ObjectCentricState, back: float, z: float) -> FloatArray:
-            # Above the cube's measured position: the chassis may nudge it on the way.
-            return np.array([*(_xy(s, cube) - back * direction), z])
-
-        def reach_above(s: ObjectCentricState) -> list[Segment]:
-            q = ik_near(_at(s, 0.01, 0.15), quat, base_pose(s, robot), READY)
-            return [Segment(arm=tuple(q), arm_tol=0.01, max_steps=80)]
-
-        def descend(s: ObjectCentricState) -> list[Segment]:
-            return line_segments(s, robot, _at(s, 0.005, GRASP_Z), heading, PITCH, 0.0)
-
-        def lift(s: ObjectCentricState) -> list[Segment]:
-            here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
-            target = np.array([here[0], here[1], CARRY_Z])
-            return line_segments(s, robot, target, heading, PITCH, 1.0, spacing=0.06)
-
-        close = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        return [
-            *self.retract(state),
-            self.drive(goal, HOME, 0.0, 0.01),
-            reach_above,
-            descend,
-            close,
-            lift,
-        ]
+        return [goal]
 
 
-class DropController(_TossController):
+class DropController(Dynamic3DController):
     """Carry the held cube over the bin and release it. Objects: ``(robot, cube, bin, barrier)``."""
 
     params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
@@ -329,7 +289,7 @@ class DropController(_TossController):
         if not _path_clear(ctx, state, b0[:2], goal[:2], cube):
             raise SkillFailure("Drop: the straight base path to the bin is blocked")
         back = goal[:2] - 0.3 * np.array([math.cos(heading), math.sin(heading)])
-        release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS + 4)
+        release = grip_segment(0.0, GRIP_STEPS + 4)
 
         def re_aim(s: ObjectCentricState) -> list[Segment]:
             # Closed loop on the bin: it may have been nudged, and the base stops within 1 cm.
@@ -353,7 +313,7 @@ class DropController(_TossController):
         ]
 
 
-class DropOverController(_TossController):
+class DropOverController(Dynamic3DController):
     """Release the held cube above the bin with the arm stretched over the upright barrier.
     Objects: ``(robot, cube, bin, barrier)``."""
 
@@ -380,7 +340,7 @@ class DropOverController(_TossController):
         if not _path_clear(ctx, state, b0[:2], stand[:2], cube):
             raise SkillFailure("DropOver: the straight base path to the barrier is blocked")
         target = np.array([*spot, CARRY_Z])
-        release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS + 4)
+        release = grip_segment(0.0, GRIP_STEPS + 4)
 
         def reach(s: ObjectCentricState) -> list[Segment]:
             return line_segments(s, robot, target, 0.0, OVER_PITCH, 1.0, spacing=0.05)
@@ -430,31 +390,16 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(OnGround.ground([c]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
     c = Variable("?cube", MOVABLE_TYPE)
     b = Variable("?bin", MOVABLE_TYPE)
     w = Variable("?barrier", MOVABLE_TYPE)
-    topple = LiftedOperator(
-        "Topple",
-        (r, w),
-        frozenset({HandEmpty.lift([r]), Upright.lift([w])}),
-        frozenset({Toppled.lift([w])}),
-        frozenset({Upright.lift([w])}),
-    )
+    upright, toppled = Upright.lift([w]), Toppled.lift([w])
+    topple = hand.empty_hand_operator("Topple", HandEmpty, [w], [upright], [toppled], [upright])
     pick = pick_operator(c, OnGround)
-    drop = LiftedOperator(
-        "Drop",
-        (r, c, b, w),
-        frozenset({Holding.lift([r, c]), Toppled.lift([w])}),
-        frozenset({HandEmpty.lift([r]), InBin.lift([c, b])}),
-        frozenset({Holding.lift([r, c])}),
-    )
-    drop_over = LiftedOperator(
-        "DropOver",
-        (r, c, b, w),
-        frozenset({Holding.lift([r, c]), Upright.lift([w])}),
-        frozenset({HandEmpty.lift([r]), InBin.lift([c, b])}),
-        frozenset({Holding.lift([r, c])}),
+    in_bin = [InBin.lift([c, b])]
+    drop = hand.place_operator("Drop", HandEmpty, Holding, c, in_bin, [toppled], params=[b, w])
+    drop_over = hand.place_operator(
+        "DropOver", HandEmpty, Holding, c, in_bin, [upright], params=[b, w]
     )
 
     def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
