@@ -11,7 +11,7 @@ import pytest
 from kinder_bench_toy import TOY_ID
 from typer.testing import CliRunner
 
-from kinder_bench.baselines.mbrl import DeltaModel, save_delta_model
+from kinder_bench.baselines.mbrl import DeltaModel, write_delta_checkpoint
 from kinder_bench.campaign import load_campaign, parse_campaign, run_campaign, train_command
 from kinder_bench.cli import app
 from kinder_bench.evaluation.envs import make_env
@@ -70,7 +70,7 @@ def _fake_mbrl_training(calls: list[list[str]]) -> object:
             np.full(d, 0.01), robot, rest, np.zeros(d, dtype=bool), np.zeros(d, dtype=bool),
             names,
         )  # fmt: skip
-        save_delta_model(out, model, TOY_ID, 2)
+        write_delta_checkpoint(out, model, TOY_ID, 2)
 
     return train
 

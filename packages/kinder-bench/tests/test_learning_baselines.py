@@ -34,6 +34,7 @@ from kinder_bench.baselines.ood import run_ood
 from kinder_bench.cli import app
 from kinder_bench.evaluation.envs import make_env
 from kinder_bench.evaluation.runner import RunConfig, run_benchmark
+from kinder_bench.training.checkpoints import read_checkpoint
 
 FIXTURE = Path(__file__).parents[2] / "kinder-gym" / "tests" / "data" / "demos" / "Motion2D-p0"
 MOTION = "kinder/Motion2D-p0-v0"
@@ -100,19 +101,21 @@ def test_dp_checkpoints_logs_and_resumes_bit_identically(
     dp_run: Path, motion: Path, tmp_path: Path
 ) -> None:
     ckpts = sorted(p.name for p in (dp_run / "checkpoints").iterdir() if p.name.startswith("s"))
-    assert ckpts == ["step_00000002", "step_00000003"]
-    assert (dp_run / "checkpoints" / "latest").read_text().strip() == "step_00000003"
+    assert ckpts == ["step_000000002", "step_000000003"]
+    assert (dp_run / "checkpoints" / "latest").read_text().strip() == "step_000000003"
     rows = (dp_run / "progress.csv").read_text().splitlines()
     assert rows[0] == "step,loss,lr,samples_per_s,elapsed_s" and len(rows) == 4
-    meta = json.loads((dp_run / "checkpoints" / "step_00000003" / "kinder.json").read_text())
-    assert meta["method"] == "dp" and meta["env_id"] == MOTION and meta["env_state_names"] == []
+    ckpt = read_checkpoint(dp_run / "checkpoints" / "step_000000003", ("dp",))
+    assert ckpt.method == "dp" and ckpt.step == 3 and ckpt.info["env_id"] == MOTION
+    assert ckpt.info["env_state_names"] == [] and ckpt.args["seed"] == 3
+    assert ckpt.args["dataset"] == str(motion) and "kinder-bench" in ckpt.versions
 
     # Stop after 2 steps, then resume to 3: the same weights as the uninterrupted run.
     resumed = tmp_path / "resumed"
     train_diffusion(_dp_args(motion, resumed, 2), progress=False)
     train_diffusion(_dp_args(motion, resumed, 3), progress=False)
-    a = torch.load(dp_run / "checkpoints/step_00000003/training_state.pt", weights_only=False)
-    b = torch.load(resumed / "checkpoints/step_00000003/training_state.pt", weights_only=False)
+    a = torch.load(dp_run / "checkpoints/step_000000003/training_state.pt", weights_only=False)
+    b = torch.load(resumed / "checkpoints/step_000000003/training_state.pt", weights_only=False)
     for key, value in a["policy"].items():
         torch.testing.assert_close(value, b["policy"][key], rtol=0, atol=0, msg=key)
     assert len((resumed / "progress.csv").read_text().splitlines()) == 4  # header + 3 rows
@@ -240,8 +243,9 @@ def test_mbrl_model_beats_constant_and_resumes(toy: Path, tmp_path: Path) -> Non
     assert ev["count_1"] > 0 and ev["count_10"] > 0
     assert ev["model_l2_1"] < 0.2 * ev["const_l2_1"]
     assert ev["model_l2_10"] < 0.2 * ev["const_l2_10"]
-    model, meta = load_delta_model(out)
-    assert meta["env_id"] == TOY_ID and bool(model.constant[model.names.index("target.radius")])
+    model, ckpt = load_delta_model(out)
+    assert ckpt.info["env_id"] == TOY_ID and ckpt.method == "mbrl" and ckpt.step == 40
+    assert bool(model.constant[model.names.index("target.radius")])
 
     # Stop after 20 epochs, resume to 40: the same model as the uninterrupted run.
     resumed = tmp_path / "resumed"
@@ -273,8 +277,8 @@ def test_train_cli_mbrl(toy: Path, tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     assert "held-out 1-step open-loop error" in result.output
     assert [p.name for p in sorted((out / "checkpoints").glob("step_*"))] == [
-        "step_00000001",
-        "step_00000002",
+        "step_000000001",
+        "step_000000002",
     ]
     bad = CliRunner().invoke(app, ["train", "dp", "--dataset", str(tmp_path), "--out", str(out)])
     assert bad.exit_code == 2 and "not a LeRobot dataset" in bad.output

@@ -16,7 +16,7 @@ from kinder_bench.baselines.mbrl import (
     LearnedModelRollouts,
     MBRLAgent,
     MBRLArgs,
-    save_delta_model,
+    write_delta_checkpoint,
 )
 from kinder_bench.evaluation.envs import make_env
 
@@ -54,10 +54,7 @@ def _random_delta_model(
 def _random_model(env_id: str, out: Path, seed: int, drift: dict[str, float]) -> Path:
     """A checkpoint of :func:`_random_delta_model`."""
     model = _random_delta_model(env_id, seed, drift)
-    ckpt = out / "ckpt"
-    ckpt.mkdir(parents=True)
-    save_delta_model(ckpt, model, env_id, 1)
-    return ckpt
+    return write_delta_checkpoint(out / "ckpt", model, env_id, 1)
 
 
 def test_row_stable_prediction_equals_one_row_calls() -> None:

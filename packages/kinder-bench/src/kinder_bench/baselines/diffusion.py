@@ -62,12 +62,14 @@ from kinder_bench.baselines.demo_data import (
 )
 from kinder_bench.evaluation.results import package_versions, write_json
 from kinder_bench.training.checkpoints import (
-    MARKER,
+    METADATA_FILE,
+    Checkpoint,
     check_resume_config,
-    find_checkpoint,
     latest_checkpoint,
+    load_checkpoint,
+    read_checkpoint,
+    save_checkpoint,
 )
-from kinder_bench.training.checkpoints import save_checkpoint as save_checkpoint_dir
 from kinder_bench.training.csvlog import CsvLog
 
 if TYPE_CHECKING:
@@ -450,6 +452,7 @@ def train_diffusion(args: DiffusionTrainArgs, progress: bool = True) -> Path:
     step = 0
     resume = latest_checkpoint(out)
     if resume is not None:
+        read_checkpoint(resume, (args.method,))  # this format and method, or a clear error
         state = torch.load(resume / "training_state.pt", map_location=device, weights_only=False)
         policy.load_state_dict(state["policy"])
         optimizer.load_state_dict(state["optimizer"])
@@ -477,7 +480,7 @@ def train_diffusion(args: DiffusionTrainArgs, progress: bool = True) -> Path:
     log = CsvLog(out / "progress.csv", ("step", "loss", "lr", "samples_per_s", "elapsed_s"))
 
     def write(ckpt: Path) -> None:
-        _save_checkpoint(ckpt, policy, ema, optimizer, scheduler, step, stats, spec, env_id, args)
+        _write_checkpoint(ckpt, policy, ema, optimizer, scheduler, step, stats)
 
     policy.train()
     losses: list[float] = []
@@ -511,7 +514,9 @@ def train_diffusion(args: DiffusionTrainArgs, progress: bool = True) -> Path:
             )
             losses, t_log = [], now
         if step % args.save_every == 0 or step == args.steps:
-            last = save_checkpoint_dir(out, step, write, keep=args.keep)
+            last = save_checkpoint(
+                out, step, args.method, args, write, info=_info(spec, env_id, args), keep=args.keep
+            )
     bar.close()
     assert last is not None
     return last
@@ -523,7 +528,7 @@ def _meta(dataset_root: Path) -> Any:
     return LeRobotDatasetMetadata(f"kinder/{dataset_root.name}", root=dataset_root)
 
 
-def _save_checkpoint(
+def _write_checkpoint(
     ckpt: Path,
     policy: DiffusionPolicy,
     ema: EMA | None,
@@ -531,10 +536,9 @@ def _save_checkpoint(
     scheduler: Any,
     step: int,
     stats: Mapping[str, Any],
-    spec: DatasetSpec,
-    env_id: str,
-    args: DiffusionTrainArgs,
 ) -> None:
+    """The trainer's files of a checkpoint: the (EMA) policy as lerobot saves it, the dataset
+    statistics, and ``training_state.pt`` (the raw weights, optimiser, scheduler, RNGs)."""
     import torch
     from safetensors.torch import save_file
 
@@ -553,20 +557,19 @@ def _save_checkpoint(
         },
         ckpt / "training_state.pt",
     )
-    write_json(
-        ckpt / MARKER,
-        {
-            "method": args.method,
-            "env_id": env_id,
-            "step": step,
-            "preset": args.preset,
-            "dataset": str(spec.root),
-            "state_names": list(spec.state_names),
-            "env_state_names": list(spec.env_state_names) if args.method == "dpes" else [],
-            "cameras": list(spec.cameras),
-            "image_size": spec.image_size,
-        },
-    )
+
+
+def _info(spec: DatasetSpec, env_id: str, args: DiffusionTrainArgs) -> dict[str, Any]:
+    """The checkpoint's ``info``: what the agents need to build the policy's inputs."""
+    return {
+        "env_id": env_id,
+        "preset": args.preset,
+        "dataset": str(spec.root),
+        "state_names": list(spec.state_names),
+        "env_state_names": list(spec.env_state_names) if args.method == "dpes" else [],
+        "cameras": list(spec.cameras),
+        "image_size": spec.image_size,
+    }
 
 
 @dataclasses.dataclass(frozen=True)
@@ -576,33 +579,39 @@ class LoadedPolicy:
     policy: Any
     preprocess: Any
     postprocess: Any
-    meta: dict[str, Any]
-    path: Path
+    checkpoint: Checkpoint
+
+    @property
+    def path(self) -> Path:
+        return self.checkpoint.path
 
 
 _CACHE: dict[tuple[str, float, str], LoadedPolicy] = {}
 
 
 def load_policy(path: Path | str, device: str = "cpu") -> LoadedPolicy:
-    """The policy of a checkpoint (or of a run directory's latest one), cached per process."""
-    import json
+    """The policy of a checkpoint (or of a run directory's latest one), cached per process.
 
+    Raises:
+        FileNotFoundError: no checkpoint at ``path``.
+        CheckpointError: not a DP/DPES checkpoint of this format.
+    """
     from lerobot.policies.diffusion.modeling_diffusion import DiffusionPolicy
     from lerobot.policies.diffusion.processor_diffusion import make_diffusion_pre_post_processors
     from safetensors.torch import load_file
 
-    ckpt = find_checkpoint(path)
+    checkpoint = load_checkpoint(path, METHODS)
+    ckpt = checkpoint.path
     device = resolve_device(device)
-    key = (str(ckpt.resolve()), (ckpt / MARKER).stat().st_mtime, device)
+    key = (str(ckpt.resolve()), (ckpt / METADATA_FILE).stat().st_mtime, device)
     if key not in _CACHE:
-        meta = json.loads((ckpt / MARKER).read_text())
         policy = DiffusionPolicy.from_pretrained(ckpt, local_files_only=True)
         policy.config.device = device
         policy.to(device).eval()
         stats = _unflatten_stats(load_file(str(ckpt / "stats.safetensors")))
         pre, post = make_diffusion_pre_post_processors(policy.config, stats)
         _CACHE.clear()  # one policy per process is enough for the runner
-        _CACHE[key] = LoadedPolicy(policy, pre, post, meta, ckpt)
+        _CACHE[key] = LoadedPolicy(policy, pre, post, checkpoint)
     return _CACHE[key]
 
 
@@ -640,12 +649,9 @@ class DiffusionAgent(Agent[DiffusionAgentArgs]):
         if not args.checkpoint:
             raise ValueError(f"Agent {self.name!r} needs --arg checkpoint=DIR (a trained run)")
         self.loaded = load_policy(args.checkpoint, args.device)
-        meta = self.loaded.meta
-        if meta["method"] != self.method:
-            raise ValueError(
-                f"{self.loaded.path} is a {meta['method']!r} checkpoint; use --agent "
-                f"{meta['method']}"
-            )
+        method, meta = self.loaded.checkpoint.method, self.loaded.checkpoint.info
+        if method != self.method:
+            raise ValueError(f"{self.loaded.path} is a {method!r} checkpoint; use --agent {method}")
         self.obs_map = ObservationMap(
             env,
             meta["state_names"],

@@ -43,10 +43,9 @@ raw units and in per-feature z-units, next to the constant-state predictor (``s_
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -65,12 +64,13 @@ from kinder_bench.baselines.mpc import (
 )
 from kinder_bench.evaluation.results import package_versions, write_json
 from kinder_bench.training.checkpoints import (
-    MARKER,
+    Checkpoint,
     check_resume_config,
-    find_checkpoint,
     latest_checkpoint,
+    load_checkpoint,
+    read_checkpoint,
+    save_checkpoint,
 )
-from kinder_bench.training.checkpoints import save_checkpoint as save_checkpoint_dir
 from kinder_bench.training.csvlog import CsvLog
 from kinder_core import ObjectCentricEnv, ObjectCentricState
 
@@ -375,6 +375,7 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
     epoch = 0
     resume = latest_checkpoint(out)
     if resume is not None:
+        read_checkpoint(resume, ("mbrl",))  # this format and method, or a clear error
         state = torch.load(resume / "training_state.pt", weights_only=False)
         net.load_state_dict(state["model"])
         optimizer.load_state_dict(state["optimizer"])
@@ -394,7 +395,7 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
              "torch_rng": torch.get_rng_state()},
             ckpt / "training_state.pt",
         )  # fmt: skip
-        save_delta_model(ckpt, numpy_model(), env_id, epoch)
+        save_delta_model(ckpt, numpy_model())
 
     log = CsvLog(out / "progress.csv", ("epoch", "loss", "val_z_1", "samples_per_s", "elapsed_s"))
     last = resume
@@ -429,7 +430,8 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
                     "elapsed_s": time.perf_counter() - t0,
                 }
             )
-            last = save_checkpoint_dir(out, epoch, write, keep=args.keep)
+            info = _info(env_id, names)
+            last = save_checkpoint(out, epoch, "mbrl", args, write, info=info, keep=args.keep)
     bar.close()
     model = numpy_model()
     evaluation = {
@@ -443,8 +445,8 @@ def train_mbrl(args: MBRLTrainArgs, progress: bool = True) -> Path:
     return last
 
 
-def save_delta_model(ckpt: Path, model: DeltaModel, env_id: str, epoch: int) -> None:
-    """Write ``model.npz`` and the checkpoint marker into ``ckpt``."""
+def save_delta_model(ckpt: Path, model: DeltaModel) -> None:
+    """Write the model's weights and normalisation as ``model.npz`` into ``ckpt``."""
     arrays: dict[str, NDArray[Any]] = {f"w/{k}": v for k, v in model.weights.items()}
     arrays.update(
         state_mean=model.state_mean, state_std=model.state_std, action_mean=model.action_mean,
@@ -454,31 +456,44 @@ def save_delta_model(ckpt: Path, model: DeltaModel, env_id: str, epoch: int) -> 
     )  # fmt: skip
     with (ckpt / "model.npz").open("wb") as f:
         np.savez(f, **arrays)  # type: ignore[arg-type]
-    write_json(
-        ckpt / MARKER,
-        {
-            "method": "mbrl",
-            "env_id": env_id,
-            "step": epoch,
-            "names": list(model.names),
-        },
-    )
 
 
-def load_delta_model(path: Path | str) -> tuple[DeltaModel, dict[str, Any]]:
-    """The model of a checkpoint (or of a run directory's latest one) and its metadata."""
-    ckpt = find_checkpoint(path)
-    meta = json.loads((ckpt / MARKER).read_text())
-    if meta.get("method") != "mbrl":
-        raise ValueError(f"{ckpt} is a {meta.get('method')!r} checkpoint, not an MBRL one")
-    with np.load(ckpt / "model.npz") as z:
+def _info(env_id: str, names: Sequence[str]) -> dict[str, Any]:
+    """The checkpoint's ``info``: the env and the feature names the model predicts."""
+    return {"env_id": env_id, "names": list(names)}
+
+
+def write_delta_checkpoint(
+    run_dir: Path | str,
+    model: DeltaModel,
+    env_id: str,
+    step: int,
+    args: MBRLTrainArgs | Mapping[str, Any] | None = None,
+) -> Path:
+    """Write ``model`` alone (no training state) as the MBRL checkpoint at ``step`` of
+    ``run_dir``, for a model made without :func:`train_mbrl`; returns the checkpoint."""
+    return save_checkpoint(
+        run_dir, step, "mbrl", args or {}, lambda d: save_delta_model(d, model),
+        info=_info(env_id, model.names),
+    )  # fmt: skip
+
+
+def load_delta_model(path: Path | str) -> tuple[DeltaModel, Checkpoint]:
+    """The model of a checkpoint (or of a run directory's latest one) and its checkpoint.
+
+    Raises:
+        FileNotFoundError: no checkpoint at ``path``.
+        CheckpointError: not an MBRL checkpoint of this format.
+    """
+    checkpoint = load_checkpoint(path, ("mbrl",))
+    with np.load(checkpoint.path / "model.npz") as z:
         weights = {k[2:]: z[k] for k in z.files if k.startswith("w/")}
         model = DeltaModel(
             weights, z["state_mean"], z["state_std"], z["action_mean"], z["action_std"],
             z["delta_mean"], z["delta_std"], z["robot_index"], z["env_index"], z["constant"],
-            z["angle"], tuple(meta["names"]),
+            z["angle"], tuple(checkpoint.info["names"]),
         )  # fmt: skip
-    return model, meta
+    return model, checkpoint
 
 
 @dataclasses.dataclass(frozen=True)
@@ -510,7 +525,7 @@ class MBRLAgent(MPCAgent):
         if not args.checkpoint:
             raise ValueError("Agent 'mbrl' needs --arg checkpoint=DIR (a `kinder train mbrl` run)")
         super().__init__(env, args, seed)
-        self.delta_model, self.meta = load_delta_model(args.checkpoint)
+        self.delta_model, self.checkpoint = load_delta_model(args.checkpoint)
         box = self._model.box_space
         position = {n: i for i, n in enumerate(box.feature_names)}
         missing = [n for n in self.delta_model.names if n not in position]

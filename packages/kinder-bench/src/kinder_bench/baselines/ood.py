@@ -15,7 +15,7 @@ from pathlib import Path
 
 from kinder_bench.evaluation.runner import RunConfig, run_benchmark
 from kinder_bench.reporting.report import write_report
-from kinder_bench.training.checkpoints import find_checkpoint
+from kinder_bench.training.checkpoints import load_checkpoint
 
 TRAIN_ENV = "kinder/DynObstruction2D-o1-v0"
 OOD_ENVS = tuple(f"kinder/DynObstruction2D-o{n}-v0" for n in range(4))
@@ -34,14 +34,11 @@ def run_ood(
     device: str = "cpu",
 ) -> str:
     """Evaluate ``checkpoint`` on :data:`OOD_ENVS` into ``out``; returns the report table."""
-    import json
-
-    ckpt = find_checkpoint(checkpoint)
-    meta = json.loads((ckpt / "kinder.json").read_text())
-    if meta.get("env_id") != TRAIN_ENV:
+    ckpt = load_checkpoint(checkpoint, ("dp", "dpes"))
+    if ckpt.info.get("env_id") != TRAIN_ENV:
         raise ValueError(
-            f"{ckpt} was trained on {meta.get('env_id')}; the OOD test expects a policy trained "
-            f"on {TRAIN_ENV}"
+            f"{ckpt.path} was trained on {ckpt.info.get('env_id')}; the OOD test expects a policy "
+            f"trained on {TRAIN_ENV}"
         )
     runs = [
         RunConfig(
