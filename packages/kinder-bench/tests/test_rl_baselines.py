@@ -19,12 +19,12 @@ pytest.importorskip("stable_baselines3")
 from kinder_bench.agents import agent_class, make_agent, make_args
 from kinder_bench.baselines.rl import train as rl_train
 from kinder_bench.baselines.rl.agents import check_compatible
-from kinder_bench.baselines.rl.checkpoints import list_checkpoints, read_meta
 from kinder_bench.baselines.rl.envs import make_rl_env
 from kinder_bench.baselines.rl.train import PPOArgs, SACArgs, make_train_args, train
 from kinder_bench.evaluation.envs import make_env
 from kinder_bench.evaluation.metrics import aggregate
 from kinder_bench.evaluation.runner import RunConfig, run_benchmark, with_run_seed
+from kinder_bench.training.checkpoints import list_checkpoints, read_checkpoint
 
 MOTION = "kinder/Motion2D-p0-v0"
 IMPORTS = ("kinder_bench_toy",)
@@ -66,9 +66,10 @@ def ppo_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_training_checkpoints_and_resumes_to_the_same_step_count(ppo_run: Path) -> None:
     assert [s for s, _ in list_checkpoints(ppo_run)] == [1024, 2048]
-    meta = read_meta(list_checkpoints(ppo_run)[-1][1])
-    assert meta["algo"] == "ppo" and meta["env_id"] == MOTION and meta["steps"] == 2048
-    assert meta["obs_shape"] == [19]
+    ckpt = read_checkpoint(list_checkpoints(ppo_run)[-1][1])
+    assert ckpt.method == "ppo" and ckpt.info["env_id"] == MOTION and ckpt.step == 2048
+    assert ckpt.info["obs_shape"] == [19]
+    assert ckpt.args["env_id"] == MOTION and ckpt.args["hidden_size"] == 16
     rows = (ppo_run / "progress.csv").read_text().splitlines()
     steps = [int(r.split(",")[0]) for r in rows[1:]]
     assert steps == [512, 1024, 1536, 2048]  # the killed run logged up to 1024; resumed after
@@ -97,7 +98,7 @@ def test_kept_checkpoints_survive_rotation_and_match_a_shorter_run(tmp_path: Pat
     policy of a 1024-step run with the same seed and arguments."""
     args = tiny_ppo(anneal_lr=False, keep_steps=(1000,), checkpoint_every=512, keep_checkpoints=1)
     long = train("ppo", dataclasses.replace(args, total_steps=2048), tmp_path / "long", False)
-    kept = [(s, read_meta(p)["kept"]) for s, p in list_checkpoints(long.out)]
+    kept = [(s, read_checkpoint(p).kept) for s, p in list_checkpoints(long.out)]
     assert kept == [(1024, True), (2048, False)]
     short = train("ppo", dataclasses.replace(args, total_steps=1024), tmp_path / "short", False)
     env = make_env(MOTION)
@@ -211,7 +212,7 @@ def test_mismatched_checkpoints_are_clear_errors(ppo_run: Path, toy_id: str) -> 
     motion = make_env(MOTION)
     with pytest.raises(ValueError, match=r"holds a ppo policy.*--agent ppo"):
         make_agent("sac", motion, {"checkpoint": str(ppo_run)})
-    meta = read_meta(list_checkpoints(ppo_run)[-1][1])
+    meta = read_checkpoint(list_checkpoints(ppo_run)[-1][1]).info
     with pytest.raises(ValueError, match=r"observations of shape \(20,\).*\(19,\)"):
         check_compatible({**meta, "obs_shape": [20]}, motion, ppo_run)
     with pytest.raises(ValueError, match="action bounds"):

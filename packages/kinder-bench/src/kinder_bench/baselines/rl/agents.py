@@ -27,13 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from kinder_bench.agents.base import Agent, needs_checkpoint
-from kinder_bench.baselines.rl.checkpoints import (
-    MODEL_FILE,
-    VECNORM_FILE,
-    read_meta,
-    resolve_checkpoint,
-)
 from kinder_bench.baselines.rl.envs import unscale_action
+from kinder_bench.training.checkpoints import Checkpoint, find_checkpoint, load_checkpoint
 
 
 @dataclasses.dataclass(frozen=True)
@@ -52,7 +47,7 @@ class RLAgentArgs:
                 "the ppo/sac agents need --arg checkpoint=DIR (a `kinder train` output directory)"
             )
         if "{seed}" not in self.checkpoint:
-            resolve_checkpoint(self.checkpoint)  # a missing checkpoint fails before any episode
+            find_checkpoint(self.checkpoint)  # a missing checkpoint fails before any episode
         if self.torch_threads < 1:
             raise ValueError(f"torch_threads must be >= 1, got {self.torch_threads}")
 
@@ -61,12 +56,15 @@ class RLAgentArgs:
 class LoadedPolicy:
     """A checkpoint loaded for inference."""
 
-    path: Path
-    meta: dict[str, Any]
+    checkpoint: Checkpoint
     model: Any
     """The SB3 model (PPO or SAC)."""
     vecnorm: Any
     """The saved ``VecNormalize`` (statistics only; its venv is not set)."""
+
+    @property
+    def path(self) -> Path:
+        return self.checkpoint.path
 
 
 _CACHE: dict[tuple[str, str, float], LoadedPolicy] = {}
@@ -77,15 +75,12 @@ def load_policy(checkpoint: Path | str, algo: str, torch_threads: int = 1) -> Lo
 
     Raises:
         FileNotFoundError: no checkpoint at ``checkpoint``, or a file of it is missing.
-        ValueError: the checkpoint holds the other algorithm.
+        CheckpointError: the checkpoint holds another method, or is not of this format.
     """
-    path = resolve_checkpoint(checkpoint)
-    meta = read_meta(path)
-    if meta.get("algo") != algo:
-        raise ValueError(
-            f"{path} holds a {meta.get('algo')} policy, not {algo}: evaluate it with "
-            f"--agent {meta.get('algo')}"
-        )
+    from kinder_bench.baselines.rl.train import ALGORITHMS, MODEL_FILE, VECNORM_FILE
+
+    ckpt = load_checkpoint(checkpoint, (algo,))
+    path = ckpt.path
     model_file = path / MODEL_FILE
     for f in (model_file, path / VECNORM_FILE):
         if not f.is_file():
@@ -97,19 +92,18 @@ def load_policy(checkpoint: Path | str, algo: str, torch_threads: int = 1) -> Lo
 
     import torch
 
-    from kinder_bench.baselines.rl.train import ALGORITHMS
-
     torch.set_num_threads(torch_threads)
     model = ALGORITHMS[algo].load(model_file, device="cpu")
     with (path / VECNORM_FILE).open("rb") as fh:
         vecnorm = pickle.load(fh)
-    loaded = LoadedPolicy(path, meta, model, vecnorm)
+    loaded = LoadedPolicy(ckpt, model, vecnorm)
     _CACHE[key] = loaded
     return loaded
 
 
 def check_compatible(meta: dict[str, Any], env: gymnasium.Env[Any, Any], where: Path) -> None:
-    """Raise a ValueError when a checkpoint's env differs from the evaluation env."""
+    """Raise a ValueError when a checkpoint's env (its ``info``) differs from the evaluation
+    env."""
     spec_id = env.spec.id if env.spec is not None else None
     if spec_id is not None and spec_id != meta["env_id"]:
         raise ValueError(
@@ -151,7 +145,7 @@ class _SB3Agent(Agent[RLAgentArgs]):
     def __init__(self, env: gymnasium.Env[Any, Any], args: RLAgentArgs, seed: int) -> None:
         super().__init__(env, args, seed)
         policy = load_policy(args.checkpoint, self.algo, args.torch_threads)
-        check_compatible(policy.meta, env, policy.path)
+        check_compatible(policy.checkpoint.info, env, policy.path)
         self.policy = policy
         self._low = self.action_space.low.astype(np.float64)
         self._high = self.action_space.high.astype(np.float64)

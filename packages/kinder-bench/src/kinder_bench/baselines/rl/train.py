@@ -23,9 +23,22 @@ checkpoint); actions rescaled to [-1, 1]; a sparse reward (−1 per step) unless
   else the env's registered ``max_episode_steps``. **Deviation:** the upstream 2D configs trained
   with a 300-step limit and evaluated with 200.
 
-Checkpoints (layout in :mod:`~kinder_bench.baselines.rl.checkpoints`) are written every
-``checkpoint_every`` steps and at the end; rerunning with the same output directory resumes from
-the newest one. A resumed run is deterministic given its checkpoint (the envs and RNGs are
+Checkpoints are written every ``checkpoint_every`` env steps and at the end, in the trainers'
+format (:mod:`kinder_bench.training.checkpoints`; method ``ppo`` or ``sac``, step = env steps).
+A training output directory holds::
+
+    config.json                  the algorithm, its full arguments, the env's spaces, versions
+    progress.csv                 one row per logging interval (CsvLog)
+    checkpoints/step_000051200/  one checkpoint per directory, named by its env step count:
+        model.zip                  the SB3 model (policy, optimizers, hyperparameters)
+        vecnormalize.pkl           the observation/reward normalisation statistics
+        replay_buffer.pkl          SAC only: the replay buffer, so that training resumes exactly
+        checkpoint.json            the arguments, versions and ``info``: env id, observation
+                                   shape, action bounds, reward, seed, n_envs, hidden_size
+    tb/                          TensorBoard events, when tensorboard is installed
+
+Rerunning with the same output directory resumes from the newest checkpoint. A resumed run is
+deterministic given its checkpoint (the envs and RNGs are
 re-seeded with ``seed + steps``), but it is not bit-identical to an uninterrupted run: the vector
 envs restart their episodes, and progress rows logged after the checkpoint are logged again.
 """
@@ -36,7 +49,6 @@ import dataclasses
 import functools
 import importlib.util
 import json
-import shutil
 import sys
 import time
 import typing
@@ -55,26 +67,20 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv,
 
 import kinder_core
 from kinder_bench.agents import parse_value
-from kinder_bench.baselines.rl.checkpoints import (
-    CHECKPOINTS_DIR,
-    CONFIG_FILE,
-    META_FILE,
-    MODEL_FILE,
-    PROGRESS_FILE,
-    REPLAY_FILE,
-    VECNORM_FILE,
-    checkpoint_name,
-    latest_checkpoint,
-    list_checkpoints,
-    read_meta,
-)
 from kinder_bench.baselines.rl.envs import REWARDS, make_rl_env
 from kinder_bench.evaluation.envs import default_max_steps, make_env, resolve_env_id, short_id
 from kinder_bench.evaluation.protocol import PAPER_MAX_STEPS
 from kinder_bench.evaluation.results import environment_info, write_json
+from kinder_bench.training.checkpoints import latest_checkpoint, read_checkpoint, save_checkpoint
 from kinder_bench.training.csvlog import CsvLog
 
 Algo = Literal["ppo", "sac"]
+CONFIG_FILE = "config.json"
+PROGRESS_FILE = "progress.csv"
+#: The trainer's files in a checkpoint directory.
+MODEL_FILE = "model.zip"
+VECNORM_FILE = "vecnormalize.pkl"
+REPLAY_FILE = "replay_buffer.pkl"
 VEC_ENVS = ("dummy", "subproc", "batched")
 
 #: Vector envs of the released configs that differ from 8 (by algorithm, then env family).
@@ -422,33 +428,23 @@ def _save_checkpoint(
     model: BaseAlgorithm,
     venv: VecNormalize,
     out: Path,
-    meta: dict[str, Any],
+    algo: str,
+    args: RLArgs,
+    info: dict[str, Any],
     keep: int,
     kept: bool = False,
 ) -> Path:
     """Write a checkpoint of ``model`` at its step count, then delete all but the newest ``keep``
     checkpoints, except those written with ``kept=True`` (``RLArgs.keep_steps``)."""
+
+    def write(d: Path) -> None:
+        model.save(d / MODEL_FILE)
+        venv.save(str(d / VECNORM_FILE))
+        if isinstance(model, SAC):
+            model.save_replay_buffer(d / REPLAY_FILE)
+
     steps = int(model.num_timesteps)
-    root = out / CHECKPOINTS_DIR
-    final = root / checkpoint_name(steps)
-    if (final / META_FILE).is_file():
-        if kept and not read_meta(final).get("kept", False):
-            write_json(final / META_FILE, {**read_meta(final), "kept": True})
-        return final
-    tmp = root / f".tmp_{checkpoint_name(steps)}"
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir(parents=True)
-    model.save(tmp / MODEL_FILE)
-    venv.save(str(tmp / VECNORM_FILE))
-    if isinstance(model, SAC):
-        model.save_replay_buffer(tmp / REPLAY_FILE)
-    write_json(tmp / META_FILE, {**meta, "steps": steps, "kept": kept})
-    shutil.rmtree(final, ignore_errors=True)  # an incomplete leftover (no meta.json)
-    tmp.rename(final)
-    rotating = [p for _, p in list_checkpoints(out) if not read_meta(p).get("kept", False)]
-    for old in rotating[:-keep]:
-        shutil.rmtree(old, ignore_errors=True)
-    return final
+    return save_checkpoint(out, steps, algo, args, write, info=info, keep=keep, kept=kept)
 
 
 class _Monitor(BaseCallback):
@@ -460,13 +456,13 @@ class _Monitor(BaseCallback):
         args: RLArgs,
         out: Path,
         venv: VecNormalize,
-        meta: dict[str, Any],
+        info: dict[str, Any],
         log: CsvLog,
         wall_offset: float,
         progress: bool,
     ) -> None:
         super().__init__()
-        self.algo, self.args, self.out, self.venv, self.meta = algo, args, out, venv, meta
+        self.algo, self.args, self.out, self.venv, self.info = algo, args, out, venv, info
         self.csv = log
         self.wall_offset = wall_offset
         self.progress = progress
@@ -492,7 +488,7 @@ class _Monitor(BaseCallback):
         self.bar = tqdm(
             total=self.args.total_steps,
             initial=steps,
-            desc=f"{self.algo} {short_id(self.meta['env_id'])} s{self.args.seed}",
+            desc=f"{self.algo} {short_id(self.info['env_id'])} s{self.args.seed}",
             unit="step",
             disable=not self.progress,
             file=sys.stderr,
@@ -536,8 +532,9 @@ class _Monitor(BaseCallback):
 
     def checkpoint(self, kept: bool = False) -> Path:
         return _save_checkpoint(
-            self.model, self.venv, self.out, self.meta, self.args.keep_checkpoints, kept
-        )
+            self.model, self.venv, self.out, self.algo, self.args, self.info,
+            self.args.keep_checkpoints, kept,
+        )  # fmt: skip
 
     def write_row(self) -> None:
         steps = int(self.num_timesteps)
@@ -627,8 +624,9 @@ def train(algo: Algo | str, args: RLArgs, out: Path | str, progress: bool = True
     config = _config(algo, args, res)
     out.mkdir(parents=True, exist_ok=True)
     _check_or_write_config(out, config)
-    meta = {
-        "algo": algo,
+    # The checkpoints record the arguments with the env id resolved, as config.json does.
+    args = dataclasses.replace(args, env_id=res.env_id)
+    info = {
         **config["env"],
         "reward": args.reward,
         "seed": args.seed,
@@ -638,14 +636,13 @@ def train(algo: Algo | str, args: RLArgs, out: Path | str, progress: bool = True
     torch.set_num_threads(args.torch_threads)
     log = CsvLog(out / PROGRESS_FILE, COMMON_COLUMNS + ALGO_COLUMNS[algo])
     ckpt = latest_checkpoint(out)
-    if ckpt is not None and read_meta(ckpt)["steps"] >= args.total_steps:
-        steps = int(read_meta(ckpt)["steps"])
-        return TrainResult(out, ckpt, steps, steps, 0, 0.0)
+    resumed = None if ckpt is None else read_checkpoint(ckpt, (algo,)).step
+    if ckpt is not None and resumed is not None and resumed >= args.total_steps:
+        return TrainResult(out, ckpt, resumed, resumed, 0, 0.0)
 
     venv = make_venv(algo, args, res)
-    resumed: int | None = None
     try:
-        if ckpt is None:
+        if ckpt is None or resumed is None:
             venv.seed(args.seed)
             env = VecNormalize(
                 venv,
@@ -657,7 +654,6 @@ def train(algo: Algo | str, args: RLArgs, out: Path | str, progress: bool = True
             )
             model = _build(algo, args, res, env)
         else:
-            resumed = int(read_meta(ckpt)["steps"])
             venv.seed(args.seed + resumed)
             env = VecNormalize.load(str(ckpt / VECNORM_FILE), venv)
             env.training = True
@@ -669,7 +665,7 @@ def train(algo: Algo | str, args: RLArgs, out: Path | str, progress: bool = True
         model.set_logger(_logger(out))
         start = int(model.num_timesteps)
         monitor = _Monitor(
-            algo, args, out, env, meta, log, _wall_offset(log, start), progress=progress
+            algo, args, out, env, info, log, _wall_offset(log, start), progress=progress
         )
         t0 = time.perf_counter()
         model.learn(
@@ -680,7 +676,7 @@ def train(algo: Algo | str, args: RLArgs, out: Path | str, progress: bool = True
         )
         wall = time.perf_counter() - t0
         if monitor.stopped_at is not None:
-            steps = int(read_meta(monitor.stopped_at)["steps"])
+            steps = read_checkpoint(monitor.stopped_at).step
             return TrainResult(out, monitor.stopped_at, steps, resumed, steps - start, wall)
         if int(model.num_timesteps) > monitor.last_steps:
             monitor.write_row()
