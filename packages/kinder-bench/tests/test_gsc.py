@@ -38,6 +38,7 @@ from kinder_bench.baselines.gsc.train import GSCTrainConfig, load_demonstrations
 from kinder_bench.cli import app
 from kinder_bench.demos.collection import CollectConfig, collect
 from kinder_bench.evaluation.runner import RunConfig, run_benchmark
+from kinder_bench.training.checkpoints import latest_checkpoint, read_checkpoint
 from kinder_core import make, make_object_centric
 
 ENV = "kinder/StickButton2D-b1-v0"
@@ -237,8 +238,12 @@ def test_checkpoint_round_trip_and_resume(tiny_transitions: Path, tmp_path: Path
 
     with pytest.raises(Stop):
         train_gsc(config(tmp_path / "b"), show_progress=False, on_step=stop_at_7)
-    st = torch.load(tmp_path / "b" / "train_state.pt", weights_only=True)
+    ckpt = latest_checkpoint(tmp_path / "b")
+    assert ckpt == tmp_path / "b" / "checkpoints" / "step_000000005"
+    st = torch.load(ckpt / "train_state.pt", weights_only=True)
     assert st["step"] == 5  # the last checkpoint before the interruption
+    meta = read_checkpoint(ckpt, ("gsc",))
+    assert meta.step == 5 and meta.info["env_id"] == ENV and meta.args["hidden"] == 32
     resumed = train_gsc(config(tmp_path / "b"), show_progress=False)
     for key, value in full.score_nets.state_dict().items():
         torch.testing.assert_close(resumed.score_nets.state_dict()[key], value)
@@ -272,7 +277,10 @@ def test_cli_train_gsc(tiny_transitions: Path, tmp_path: Path) -> None:
     args += ["--demo-episodes", "3", "--perturbations", "1", "--hidden", "16", "--depth", "1"]
     result = CliRunner().invoke(app, [*args, "--no-progress"])
     assert result.exit_code == 0, result.output
-    assert (out / "model.pt").is_file() and (out / "summary.json").is_file()
+    ckpt = latest_checkpoint(out)
+    assert ckpt is not None and ckpt.name == "step_000000003"
+    assert (ckpt / "model.pt").is_file() and (out / "summary.json").is_file()
+    assert f"--agent gsc --arg checkpoint={out}" in result.output
     bad = CliRunner().invoke(app, ["train", "gsc", "--env", "Nope2D", "--out", str(tmp_path)])
     assert bad.exit_code != 0
 

@@ -99,9 +99,11 @@ dataclass_command(
 
 def _run_gsc(config: GSCTrainConfig, progress: bool) -> None:
     from kinder_bench.baselines.gsc.train import train_gsc
+    from kinder_bench.training.checkpoints import latest_checkpoint
 
     train_gsc(config, show_progress=progress)
-    typer.echo(f"GSC model written to {config.out}/model.pt")
+    typer.echo(f"checkpoint: {latest_checkpoint(config.out)}")
+    typer.echo(f"evaluate:   kinder bench run --env ENV --agent gsc --arg checkpoint={config.out}")
 
 
 dataclass_command(

@@ -46,6 +46,7 @@ from kinder_bench.baselines.bilevel_planning import abstract_match, model_for
 from kinder_bench.baselines.bilevel_search import HFF, SEARCH_ALGORITHMS, abstract_plans
 from kinder_bench.baselines.gsc.model import MODEL_FILE, GSCModel
 from kinder_bench.baselines.gsc.sampler import ChainSamples, ChainStep, sample_chain
+from kinder_bench.training.checkpoints import find_checkpoint
 from kinder_core import ObjectCentricState
 from kinder_gym.concepts import GroundAtom
 from kinder_gym.model import PlanningModel
@@ -60,7 +61,7 @@ class GSCArgs:
     """Arguments of the GSC agent."""
 
     checkpoint: str = ""
-    """The directory written by ``kinder train gsc`` (required)."""
+    """A ``kinder train gsc`` run directory (its newest checkpoint) or one checkpoint (required)."""
     num_samples: int = 40
     """Chains sampled jointly per plan (GSC: 40)."""
     steps: int = 50
@@ -98,17 +99,19 @@ _CACHE: dict[tuple[str, float], GSCModel] = {}
 
 
 def load_model(checkpoint: str | Path) -> GSCModel:
-    """The model in a checkpoint directory (cached per path and modification time)."""
-    path = Path(checkpoint)
-    file = path / MODEL_FILE if path.is_dir() else path
-    if not file.is_file():
-        raise FileNotFoundError(
-            f"No GSC model at {file}; train one with `kinder train gsc --env ID --out DIR`"
-        )
-    key = (str(file.resolve()), file.stat().st_mtime)
+    """The model of a run directory (its newest checkpoint) or of one checkpoint directory
+    (cached per checkpoint and modification time).
+
+    Raises:
+        FileNotFoundError: no checkpoint at ``checkpoint`` (train one with ``kinder train gsc``).
+        CheckpointError: not a GSC checkpoint of this format.
+    """
+    path = find_checkpoint(checkpoint)
+    file = path / MODEL_FILE
+    key = (str(path.resolve()), file.stat().st_mtime if file.is_file() else 0.0)
     if key not in _CACHE:
         _CACHE.clear()
-        _CACHE[key] = GSCModel.load(file).eval()
+        _CACHE[key] = GSCModel.load(path).eval()
     return _CACHE[key]
 
 

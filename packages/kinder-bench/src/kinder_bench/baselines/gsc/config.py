@@ -42,6 +42,8 @@ class GSCTrainConfig:
     seed: int = 0
     threads: int = 1
     """``torch.set_num_threads``."""
+    keep: int = 2
+    """Checkpoints to keep (older ones are deleted)."""
 
     def __post_init__(self) -> None:
         checks = [
@@ -55,6 +57,7 @@ class GSCTrainConfig:
             (self.hidden >= 1 and self.depth >= 1, "hidden and depth must be >= 1"),
             (self.checkpoint_every >= 1 and self.log_every >= 1, "intervals must be >= 1"),
             (self.threads >= 1, "threads must be >= 1"),
+            (self.keep >= 1, "keep must be >= 1"),
         ]
         for ok, msg in checks:
             if not ok:
@@ -63,6 +66,6 @@ class GSCTrainConfig:
     def data_dict(self) -> dict[str, Any]:
         """The fields that decide the data and the networks (a resume must match them)."""
         d = dataclasses.asdict(self)
-        for k in ("out", "steps", "checkpoint_every", "log_every", "threads"):
+        for k in ("out", "steps", "checkpoint_every", "log_every", "threads", "keep"):
             d.pop(k)
         return d

@@ -30,14 +30,16 @@ import torch
 from numpy.typing import NDArray
 from torch import nn
 
+from kinder_bench.training.checkpoints import load_checkpoint
 from kinder_core import ObjectCentricEnv
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
 
-#: File name of a model checkpoint inside a checkpoint directory.
+#: File name of the model inside a checkpoint directory.
 MODEL_FILE = "model.pt"
-#: Bumped when the checkpoint format changes.
+#: Bumped when the layout of ``model.pt`` changes (the checkpoint's own format is
+#: :data:`kinder_bench.training.checkpoints.FORMAT_VERSION`).
 FORMAT_VERSION = 1
 
 
@@ -312,22 +314,27 @@ class GSCModel:
         return model
 
     def save(self, directory: Path | str) -> Path:
-        """Write ``model.pt`` into ``directory`` atomically."""
+        """Write ``model.pt`` into ``directory`` (a checkpoint being written) atomically."""
         path = Path(directory) / MODEL_FILE
         atomic_torch_save(self.state_dict(), path)
         return path
 
     @classmethod
-    def load(cls, directory: Path | str) -> GSCModel:
-        """The model in ``directory`` (a directory written by ``kinder train gsc``)."""
-        path = Path(directory)
-        if path.is_dir():
-            path = path / MODEL_FILE
-        if not path.is_file():
+    def load(cls, path: Path | str) -> GSCModel:
+        """The model of a ``kinder train gsc`` run directory (its newest checkpoint) or of one
+        checkpoint directory.
+
+        Raises:
+            FileNotFoundError: no checkpoint at ``path``, or it lacks ``model.pt``.
+            CheckpointError: not a GSC checkpoint of this format.
+        """
+        ckpt = load_checkpoint(path, ("gsc",))
+        file = ckpt.path / MODEL_FILE
+        if not file.is_file():
             raise FileNotFoundError(
-                f"No GSC model at {path}; train one with `kinder train gsc --env ID --out DIR`"
+                f"Checkpoint {ckpt.path} is incomplete: {MODEL_FILE} is missing"
             )
-        return cls.from_state_dict(torch.load(path, map_location="cpu", weights_only=True))
+        return cls.from_state_dict(torch.load(file, map_location="cpu", weights_only=True))
 
 
 def atomic_torch_save(obj: Any, path: Path) -> None:

@@ -16,11 +16,13 @@ Stages, each resumable, all files under the output directory:
 3. Training: each step takes, for every skill, one minibatch of successful ``[s, a, s′]``
    windows for its ε-model (t ~ U(0.001, 1), MSE on ε) and one class-balanced minibatch of
    ``[s, a]`` with outcome labels for its classifier (BCE). Adam (lr ``lr``, GSC's 1e-3) with a
-   cosine decay to 0 over ``steps``. ``model.pt`` (what the agent loads) and ``train_state.pt``
-   (optimisers, step, RNG) are written atomically every ``checkpoint_every`` steps and at the
-   end; rerunning the same command resumes from the last checkpoint, and a larger ``steps``
-   continues a finished run. ``progress.csv`` (:class:`~kinder_bench.training.csvlog.CsvLog`)
-   gets one row per skill every ``log_every`` steps; ``summary.json`` the data sizes and times.
+   cosine decay to 0 over ``steps``. A checkpoint in the trainers' format
+   (:mod:`kinder_bench.training.checkpoints`; method ``gsc``, step = optimiser steps) holding
+   ``model.pt`` (what the agent loads) and ``train_state.pt`` (optimiser, step, RNG) is written
+   every ``checkpoint_every`` steps and at the end under ``checkpoints/step_*/``; rerunning the
+   same command resumes from the newest one, and a larger ``steps`` continues a finished run.
+   ``progress.csv`` (:class:`~kinder_bench.training.csvlog.CsvLog`) gets one row per skill
+   every ``log_every`` steps; ``summary.json`` the data sizes and times.
 """
 
 from __future__ import annotations
@@ -48,18 +50,19 @@ from kinder_bench.baselines.gsc.data import (
     transitions_from_records,
 )
 from kinder_bench.baselines.gsc.model import (
+    MODEL_FILE,
     GSCModel,
     Layout,
     NetConfig,
     SkillSpec,
     alpha_bar,
-    atomic_torch_save,
     state_scaler,
 )
 from kinder_bench.demos.collection import CONFIG_FILE as COLLECT_CONFIG
 from kinder_bench.demos.collection import CollectConfig, collect, kept_files
 from kinder_bench.evaluation.envs import resolve_env_id
 from kinder_bench.evaluation.results import write_json
+from kinder_bench.training.checkpoints import latest_checkpoint, read_checkpoint, save_checkpoint
 from kinder_bench.training.csvlog import CsvLog
 from kinder_core import ObjectCentricEnv, make_object_centric
 from kinder_gym.demos.record import EpisodeRecord
@@ -242,28 +245,33 @@ def train_gsc(
     opt = torch.optim.Adam(params, lr=config.lr)
     gen = torch.Generator().manual_seed(config.seed)
     step, train_seconds = 0, 0.0
-    state_file = out / TRAIN_STATE_FILE
-    if state_file.is_file() and (out / "model.pt").is_file():
-        saved = torch.load(out / "model.pt", map_location="cpu", weights_only=True)
+    resume = latest_checkpoint(out)
+    if resume is not None:
+        read_checkpoint(resume, ("gsc",))  # this format and method, or a clear error
+        saved = torch.load(resume / MODEL_FILE, map_location="cpu", weights_only=True)
         model.score_nets.load_state_dict(saved["score_nets"])
         model.classifiers.load_state_dict(saved["classifiers"])
-        st = torch.load(state_file, map_location="cpu", weights_only=True)
+        st = torch.load(resume / TRAIN_STATE_FILE, map_location="cpu", weights_only=True)
         opt.load_state_dict(st["optimizer"])
         gen.set_state(st["generator"])
         step, train_seconds = int(st["step"]), float(st["seconds"])
     log = CsvLog(out / "progress.csv", LOG_COLUMNS)
 
-    def save() -> None:
-        model.save(out)
-        atomic_torch_save(
+    def write(ckpt: Path) -> None:
+        model.save(ckpt)
+        torch.save(
             {
                 "optimizer": opt.state_dict(),
                 "generator": gen.get_state(),
                 "step": step,
                 "seconds": train_seconds,
             },
-            state_file,
+            ckpt / TRAIN_STATE_FILE,
         )
+
+    def save() -> None:
+        info = {"env_id": env_id, "operators": sorted(model.skills)}
+        save_checkpoint(out, step, "gsc", config, write, info=info, keep=config.keep)
         write_json(
             out / "summary.json",
             {
@@ -352,7 +360,7 @@ def train_gsc(
                 last = time.perf_counter()
             if on_step is not None:
                 on_step(step)
-    if not (out / "model.pt").is_file():
+    if latest_checkpoint(out) is None:
         save()
     return model.eval()
 
