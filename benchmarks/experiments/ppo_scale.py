@@ -43,6 +43,13 @@ import time
 from pathlib import Path
 from typing import Any
 
+from kinder_bench.training.checkpoints import (
+    METADATA_FILE,
+    checkpoint_name,
+    list_checkpoints,
+    read_checkpoint,
+)
+
 ENVS = ("StickButton2D-b1", "Obstruction2D-o2", "ClutteredRetrieval2D-o1")
 BUDGETS = (1_000_000, 10_000_000, 100_000_000)
 N_ENVS = 4096
@@ -129,9 +136,7 @@ def reached(out: Path, env: str, seeds: list[int]) -> int:
     """The fewest env steps any seed's newest checkpoint holds (0: a seed has none)."""
     least = None
     for seed in seeds:
-        root = run_dir(out, env, seed) / "checkpoints"
-        steps = [int(p.name.removeprefix("step_")) for p in root.glob("step_*")]
-        steps = [s for s in steps if (root / f"step_{s:09d}" / "meta.json").is_file()]
+        steps = [s for s, _ in list_checkpoints(run_dir(out, env, seed))]
         least = min(least, max(steps, default=0)) if least is not None else max(steps, default=0)
     return least or 0
 
@@ -147,7 +152,7 @@ def evaluations(out: Path, seeds: list[int]) -> list[tuple[str, str, str, str]]:
         for budget in BUDGETS:
             step = kept_step(budget)
             if step <= top:
-                ckpt = f"{template}/checkpoints/step_{step:09d}"
+                ckpt = f"{template}/checkpoints/{checkpoint_name(step)}"
                 todo.append((env, ckpt, budget_name(budget), training_text(step)))
         if top and top < kept_step(BUDGETS[-1]) and all(kept_step(b) != top for b in BUDGETS):
             most = max(reached(out, env, [seed]) for seed in seeds)
@@ -274,18 +279,17 @@ def pack(args: argparse.Namespace) -> None:
                 for name in ("config.json", "progress.csv", "train.log"):
                     if (run / name).is_file():
                         tar.add(run / name, str((run / name).relative_to(args.out)))
-                ckpts = sorted((run / "checkpoints").glob("step_*"))
-                ckpts = [c for c in ckpts if (c / "meta.json").is_file()]
+                ckpts = [c for _, c in list_checkpoints(run)]
                 for c in ckpts:
-                    meta = json.loads((c / "meta.json").read_text())
-                    if not meta.get("kept") and c != ckpts[-1]:
+                    if not read_checkpoint(c).kept and c != ckpts[-1]:
                         continue
                     model = KinderPPO.load(c / "model.zip", device="cpu")
                     policy = model.policy
                     policy.optimizer = torch.optim.Adam(policy.parameters(), lr=3e-4)
                     model.save(c / "model.zip")
-                    write = {**meta, "optimizer_state": "left out"}
-                    (c / "meta.json").write_text(json.dumps(write, indent=2, sort_keys=True))
+                    meta = json.loads((c / METADATA_FILE).read_text())
+                    meta["info"]["optimizer_state"] = "left out"
+                    (c / METADATA_FILE).write_text(json.dumps(meta, indent=2, sort_keys=True))
                     tar.add(c, str(c.relative_to(args.out)))
         size = (args.dest / f"{env}.tgz").stat().st_size
         print(f"wrote {args.dest / f'{env}.tgz'} ({size / 1e6:.1f} MB)")

@@ -35,13 +35,13 @@ import time
 from pathlib import Path
 from typing import Any
 
-from kinder_bench.baselines.rl.checkpoints import list_checkpoints
 from kinder_bench.baselines.rl.train import make_train_args, train
 from kinder_bench.evaluation.envs import resolve_env_id, short_id
 from kinder_bench.evaluation.protocol import PAPER_ENVS
 from kinder_bench.evaluation.results import write_json
 from kinder_bench.evaluation.runner import RunConfig, run_benchmark
 from kinder_bench.reporting.report import write_report
+from kinder_bench.training.checkpoints import list_checkpoints
 
 CELLS_FILE = "cells.json"
 
