@@ -96,6 +96,13 @@ Upstream's contacts sink deeper under load: its yellow bin sits 0.6 mm lower und
 the cubes 0.9 mm lower, so heights are compared after removing that offset (``HEIGHT_SHIFT``).
 One-step errors: base median 1.3e-4, max 2.4e-4; arm median 0.025, max 0.038; gripper max 0.010;
 objects 9.1e-4 (the cubes rising out of upstream's deeper contacts in the first step).
+
+SweepSimple3D-o1-sweep_the_blocks_to_the_left_side_of_the_kitchen_island (recorded the same way;
+``STEP_TOL_BY_ID``): the upright wiper and the 2 cm cube match upstream's reset distribution
+with no family rule (30 and 100 seeds). Random actions drive the robot into the side counter
+(base y about 1.95 m), where upstream's mesh robot turns less than our primitive one: base max
+0.2 (measured 0.173 in one of the 90 steps; median 1.4e-4). Other one-step errors: arm median
+0.028, max 0.047; gripper max 0.011; objects 2e-12.
 """
 
 from __future__ import annotations
@@ -129,6 +136,7 @@ IDS = (
     "Dynamo3D-o3",
     "Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl",
     "SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins",
+    "SweepSimple3D-o1-sweep_the_blocks_to_the_left_side_of_the_kitchen_island",
 )
 SETTLE_ATOL = 1e-9  # float rounding after the resolution
 CONST_ATOL = 1e-6
@@ -204,6 +212,9 @@ HEIGHT_SHIFT = {"kinder/ScoopPour3D-o10-v0": 1.5e-3}
 STEP_TOL_BY_ID = {
     "kinder/Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl-v0": {"arm": (0.04, 0.25)},
     "kinder/Dynamo3D-o1-v0": {"objects": (1e-3, 0.05)},
+    "kinder/SweepSimple3D-o1-sweep_the_blocks_to_the_left_side_of_the_kitchen_island-v0": {
+        "base": (1e-3, 0.2)
+    },
 }
 
 

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from kinder_garden3d.dynamic3d.env import Dynamic3DEnv
+from kinder_garden3d.dynamic3d.env import Dynamic3DConfig, Dynamic3DEnv
 from kinder_garden3d.dynamic3d.taskfile import (
     TaskFileError,
     load_task,
@@ -186,6 +186,33 @@ def test_variant_patches_apply_by_count():
     # o20 patches the cubes' colours and goals (blocks 1-5 red, ...), o4 cycles them.
     assert [g[2] for g in o20.goal[1]][4:6] == ["bin_red_goal_region", "bin_green_goal_region"]
     assert [g[2] for g in o4.goal[1]][:2] == ["bin_red_goal_region", "bin_green_goal_region"]
+
+
+SWEEP = "SweepSimple3D/SweepSimple3D-sweep_the_blocks_to_the_left_side_of_the_kitchen_island.json"
+
+
+def test_task_options_patch_the_task_after_the_variant(tmp_path):
+    default, flat = load_task(SWEEP, 1), load_task(SWEEP, 1, ["flat_wiper"])
+    assert default.objects["wiper_0"].params["upright"] is True
+    assert flat.objects["wiper_0"].params["upright"] is False
+    assert (default.objects["cube_0"].params["size"], flat.objects["cube_0"].params["size"]) == (
+        0.02,
+        0.01,
+    )
+    # o50's own patch makes the wiper 1 m tall; the option, applied after it, restores 30 cm.
+    assert load_task(SWEEP, 50).objects["wiper_0"].params["handle_length"] == 1.0
+    assert load_task(SWEEP, 50, ["flat_wiper"]).objects["wiper_0"].params["handle_length"] == 0.3
+    with pytest.raises(
+        TaskFileError, match=r"task option 'round_wiper' is not offered; this task offers \['flat"
+    ):
+        load_task(SWEEP, 1, ["round_wiper"])
+    path = write(tmp_path, broken(options={"tall": {"patch": {}}}))
+    with pytest.raises(
+        TaskFileError, match=r"options\.tall\.description: expected a non-empty string"
+    ):
+        load_task(path)
+    with pytest.raises(ValueError, match="task_options must be a sequence of option names"):
+        Dynamic3DConfig(task_options="flat_wiper")  # type: ignore[arg-type]
 
 
 def test_a_variant_can_have_its_own_step_limit(tmp_path):

@@ -85,6 +85,9 @@ class Dynamic3DConfig:
         placement_gap: Height (m) above its support at which an object is released.
         default_robot_region: (xmin, ymin, xmax, ymax) for the robot base when the task does
             not place it (any yaw).
+        task_options: Names of entries of the task file's ``options`` section to apply (each
+            a documented alternative to the default scene, off by default; see Deviations for
+            the bundled ones). An option the task does not offer is an error.
     """
 
     timestep: float = 0.001
@@ -102,8 +105,15 @@ class Dynamic3DConfig:
     max_reset_tries: int = 20
     placement_gap: float = 0.001
     default_robot_region: tuple[float, float, float, float] = (-1.0, -1.0, 1.0, 1.0)
+    task_options: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        options: object = self.task_options  # a config dict may hold any value here
+        if not (isinstance(options, (list, tuple)) and all(isinstance(o, str) for o in options)):
+            raise ValueError(
+                f"Dynamic3DConfig.task_options must be a sequence of option names, got {options!r}"
+            )
+        object.__setattr__(self, "task_options", tuple(options))  # a list from a config dict
         positive = ("timestep", "max_base_delta", "max_arm_delta", "max_arm_velocity_target",
                     "impratio")  # fmt: skip
         for name in positive:
@@ -233,6 +243,10 @@ class Dynamic3DEnv(ObjectCentricEnv):
       stay.
     * The robot's `base` camera is oriented with the spec's MuJoCo euler angles
       (0, −45°, −90°) when the scene is assembled.
+    * Kept option, off by default: `Dynamic3DConfig(task_options=("flat_wiper",))` gives the
+      SweepSimple3D tasks their earlier scene (a flat T wiper with a 3 cm head, 1 cm cubes, the
+      wiper's yaw in ±20°, o1's regions for every variant, the goal box without upstream's 5 cm
+      margin). The default is upstream's: an upright wiper and 2 cm cubes (the task files' notes).
 
     ## References
     KinDER (RSS 2026), environments.md §5; TidyBot++ (CoRL 2024); MuJoCo.
@@ -244,6 +258,10 @@ class Dynamic3DEnv(ObjectCentricEnv):
       upstream's retract pose (joint 3 at +π, joints 2, 4, 6 at −20°, −146°, −50°; it was the
       robot model's rounded `RETRACT` with joint 3 at −π). Checked against recorded upstream
       resets by `tests/test_conformance_dynamic3d.py`.
+    * v0 (upstream conformance): SweepSimple3D draws upstream's scene: an upright wiper (a
+      30 × 2 × 4 cm head and a 30 cm handle; o50 a 40 cm head and a 1 m handle) and 2 cm cubes
+      dropped from up to 10 cm, the wiper's yaw in ±45°, o50's own regions, upstream's goal
+      margin; the earlier scene is the `flat_wiper` task option.
     * v0 (contact update): elliptic friction cones and `impratio = 10` as upstream's robot
       models (MuJoCo's pyramidal cone and 1 before; `Dynamic3DConfig(cone="pyramidal",
       impratio=1)` restores them). A held 2 cm cube slipped about 0.9 mm/s out of the pads
@@ -274,8 +292,8 @@ class Dynamic3DEnv(ObjectCentricEnv):
             except TypeError as e:
                 raise ValueError(f"Dynamic3DEnv: bad config {config!r}: {e}") from None
         self.config = config
-        self.task: TaskSpec = load_task(task, num_objects)
         cfg = self.config
+        self.task: TaskSpec = load_task(task, num_objects, cfg.task_options)
         self._held_torque = cfg.arm_control == "held_torque"
         self.scene: Scene = build_scene(
             self.task, (cfg.image_width, cfg.image_height), arm_motors=self._held_torque

@@ -5,7 +5,9 @@ A task file is JSON under ``tasks/<Family>/``; the schema is documented in the p
 
 1. parses it (errors name the file, line and column);
 2. picks the variant matching ``num_objects`` (if the file lists ``variants``) and applies that
-   variant's ``patch`` (JSON Merge Patch, RFC 7386: ``null`` deletes a key);
+   variant's ``patch`` (JSON Merge Patch, RFC 7386: ``null`` deletes a key), then the ``patch``
+   of every chosen entry of the file's ``options`` (named alternatives to the default scene,
+   chosen with ``Dynamic3DConfig.task_options``);
 3. merges the named ``scene`` file (``tasks/scenes/<scene>.json``) underneath the task;
 4. expands ``{i}`` templates for i in ``start … start + count - 1`` (dict keys and list items
    that contain ``{i}`` are repeated; ``{"cycle": [...]}`` values pick per index; ``{n}`` is the
@@ -19,7 +21,7 @@ from __future__ import annotations
 import copy
 import json
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,7 +39,7 @@ GROUND = "ground"
 _TOP_KEYS = {
     "family", "description", "instruction", "max_episode_steps", "count", "variants", "scene",
     "fixtures", "objects", "regions", "cameras", "static", "initial_state", "goal", "notes",
-    "arm_velocity_targets", "robot_clearance",
+    "arm_velocity_targets", "robot_clearance", "options",
 }  # fmt: skip
 _SCENE_KEYS = {"description", "fixtures", "objects", "regions", "cameras", "static", "notes"}
 _PLACEMENT_PREDICATES = ("on", "in")
@@ -308,8 +310,9 @@ def _expand(x: Any, indices: list[int], n: int | None, where: str) -> Any:
     return _subst(x, None, 0, n, where)
 
 
-def load_task(task: str, num_objects: int | None = None) -> TaskSpec:
-    """Load, template and validate a task file (see the module docstring)."""
+def load_task(task: str, num_objects: int | None = None, options: Sequence[str] = ()) -> TaskSpec:
+    """Load, template and validate a task file (see the module docstring); ``options`` names
+    entries of the file's ``options`` section whose patches are applied, in order."""
     path, display = resolve_task_path(task)
     raw = _read_json(path, display)
     v = _Validator(display)
@@ -358,7 +361,19 @@ def load_task(task: str, num_objects: int | None = None) -> TaskSpec:
                         raise v.error(key, f"must be positive, got {steps}")
                     raw = {**raw, "max_episode_steps": steps}
                 instruction = spec.get("instruction", instruction)
-    raw = {k: val for k, val in raw.items() if k != "variants"}
+    offered = v.obj(raw.get("options", {}), "options", None)
+    for label, spec in offered.items():
+        spec = v.obj(spec, f"options.{label}", {"description", "patch"})
+        v.string(spec.get("description"), f"options.{label}.description")
+        v.obj(spec.get("patch"), f"options.{label}.patch", None)
+    for label in options:
+        if label not in offered:
+            raise TaskFileError(
+                f"{display}: task option {label!r} is not offered; this task offers "
+                f"{sorted(offered)}"
+            )
+        raw = merge_patch(raw, offered[label]["patch"])
+    raw = {k: val for k, val in raw.items() if k not in ("variants", "options")}
 
     scene = raw.get("scene")
     if scene is not None:
