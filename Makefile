@@ -54,8 +54,8 @@ fmt: sync  ## Format and auto-fix.
 	$(UV) run --no-sync ruff check --fix .
 
 bench: sync  ## Speed benchmarks (benchmarks/README.md explains each).
-	$(UV) run --no-sync python benchmarks/core_bench.py
-	$(UV) run --no-sync python benchmarks/env_speed.py --all
+	$(UV) run --no-sync python benchmarks/speed/core_bench.py
+	$(UV) run --no-sync python benchmarks/speed/env_speed.py --all
 
 docs: sync  ## Regenerate docs/envs/ pages for every registered id.
 	$(UV) run --no-sync python tools/gen_env_docs.py --all

@@ -27,7 +27,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 UPSTREAM_VENV = ROOT / ".venv-upstream"
 UPSTREAM_SPEC = "kindergarden==0.2.5"
-SPEED = Path(__file__).with_name("env_speed.py")
+SPEED = Path(__file__).resolve().parent / "speed" / "env_speed.py"
 
 
 def ensure_upstream_venv() -> Path:

@@ -4,7 +4,7 @@ Reads the ``summary.csv`` of evaluation-runner directories (``kinder bench run .
 and prints a markdown table of success rate, reward on successes and inference time per env,
 with the paper's BP success and inference time beside them. Every figure comes from the CSVs.
 
-    uv run python benchmarks/results/bilevel_planning_table.py RUN_DIR [RUN_DIR ...] \
+    uv run python benchmarks/experiments/bilevel_planning_table.py RUN_DIR [RUN_DIR ...] \
         [--compare GBFS_RUN_DIR] > benchmarks/results/bilevel_planning.md
 """
 

@@ -1,6 +1,17 @@
 """Train and evaluate one learning baseline (DP, DPES or MBRL) on the paper's benchmark envs.
 
-Shared by ``benchmarks/dp.py``, ``benchmarks/dpes.py`` and ``benchmarks/mbrl.py``. For every env
+Usage (resumable; the method is the first argument, its options follow)::
+
+    # the paper's budget on all eight envs
+    uv run python benchmarks/experiments/learning.py dp
+    uv run python benchmarks/experiments/learning.py dpes --env Motion2D-p0 --preset cpu \\
+        --steps 1500
+    uv run python benchmarks/experiments/learning.py mbrl --env Motion2D-p0 --seeds 0 --episodes 10
+
+The paper's protocol for every baseline at once is the campaign driver (``uv run kinder bench
+campaign benchmarks/campaigns/paper.toml --only mbrl``; benchmarks/README.md, "Campaigns").
+
+For every env
 (default: the paper's eight) it takes the demonstration dataset
 ``datasets/<Env>/data/lerobot`` (made by ``make datasets DATASETS=<Env>``; a missing one is
 reported and skipped), trains into ``<out>/train/<Env>`` and evaluates with the standard runner
@@ -20,14 +31,19 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
+
+
+METHODS = ("dp", "dpes", "mbrl")
 
 
 def parse_args(method: str, argv: list[str] | None = None) -> argparse.Namespace:
     from kinder_bench.evaluation.protocol import PAPER_ENVS
 
     diffusion = method in ("dp", "dpes")
-    p = argparse.ArgumentParser(description=f"Train and evaluate {method.upper()} (see {__file__})")
+    p = argparse.ArgumentParser(
+        prog=f"learning.py {method}", description=f"Train and evaluate {method.upper()}."
+    )
     p.add_argument("--env", action="append", help="Env id(s); default: the paper's eight.")
     p.add_argument("--datasets", type=Path, default=ROOT / "datasets", help="Datasets root.")
     p.add_argument("--out", type=Path, default=ROOT / "runs" / "learning" / method)
@@ -68,7 +84,19 @@ def _throughput(run: Path) -> str:
     return f"{sum(float(r['samples_per_s']) for r in rows) / len(rows):.0f}"
 
 
-def main(method: str, argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None) -> int:
+    """Run ``learning.py METHOD [OPTIONS]``; a missing or unknown method is a usage error."""
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] in (["-h"], ["--help"]):
+        print(f"usage: learning.py {{{','.join(METHODS)}}} [OPTIONS]\n\n{__doc__}")
+        print("Each method's options: learning.py METHOD --help")
+        return 0
+    if not argv or argv[0] not in METHODS:
+        got = repr(argv[0]) if argv else "nothing"
+        print(f"usage: learning.py {{{','.join(METHODS)}}} [OPTIONS]; got {got} as the method",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    method, argv = argv[0], argv[1:]
     import torch
 
     from kinder_bench.baselines.demo_data import read_dataset_spec
@@ -163,3 +191,7 @@ def main(method: str, argv: list[str] | None = None) -> int:
         print(table)
     print(json.dumps({"out": str(args.out)}))
     return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -22,9 +22,10 @@ with its training budget, so the results page shows it as a variant beside the p
 
 Usage (``train`` on a machine with a GPU and many cores; ``evaluate`` and ``report`` anywhere)::
 
-    python benchmarks/ppo_scale.py train --out runs/ppo_scale --device cuda --max-wall-s 480
-    python benchmarks/ppo_scale.py evaluate --out runs/ppo_scale --workers 2
-    python benchmarks/ppo_scale.py report --out runs/ppo_scale
+    python benchmarks/experiments/ppo_scale.py train --out runs/ppo_scale --device cuda \\
+        --max-wall-s 480
+    python benchmarks/experiments/ppo_scale.py evaluate --out runs/ppo_scale --workers 2
+    python benchmarks/experiments/ppo_scale.py report --out runs/ppo_scale
 
 ``train`` starts every (env, seed) run at once, each pinned to its own core (``--jobs`` at most);
 rerunning resumes each run from its newest checkpoint.
@@ -62,7 +63,7 @@ HP: dict[str, Any] = {
     "learning_rate": 3e-4,
 }
 ROLLOUT = N_ENVS * HP["n_steps"]
-RESULTS = Path(__file__).resolve().parent / "results"
+RESULTS = Path(__file__).resolve().parents[1] / "results"
 
 
 def budget_name(steps: int) -> str:

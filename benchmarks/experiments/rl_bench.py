@@ -12,12 +12,13 @@ cell's status, budget and training throughput; ``--summary`` writes them with th
 markdown.
 
     # the core cells (5 seeds × 1M steps × 50 episodes, both algorithms)
-    nice -n 10 uv run python benchmarks/rl_bench.py --algo ppo --algo sac \\
+    nice -n 10 uv run python benchmarks/experiments/rl_bench.py --algo ppo --algo sac \\
         --env Motion2D-p0 --env StickButton2D-b1 --env BaseMotion3D --seeds 0-4
     # every cell of the paper's eight envs
-    nice -n 10 uv run python benchmarks/rl_bench.py --algo ppo --algo sac --suite paper
+    nice -n 10 uv run python benchmarks/experiments/rl_bench.py --algo ppo --algo sac --suite paper
     # the appendix's sparse-vs-dense comparison on BaseMotion3D
-    nice -n 10 uv run python benchmarks/rl_bench.py --dense-comparison --out runs/rl-dense
+    nice -n 10 uv run python benchmarks/experiments/rl_bench.py --dense-comparison \\
+        --out runs/rl-dense
 
 Cells run one after another in this process (training is bound by the learner, see
 ``rl_throughput.py``); ``--stop-after-minutes`` stops starting new cells after a time budget.
@@ -229,7 +230,7 @@ def main() -> None:
         print(table)
     if a.summary:
         argv = [x for x in sys.argv[1:] if x != "--report-only"]
-        command = "python benchmarks/rl_bench.py " + " ".join(argv)
+        command = "python benchmarks/experiments/rl_bench.py " + " ".join(argv)
         planned = [cell_key(al, e, r, a.steps, s) for al, e, r, s in plan]
         a.summary.write_text(summary_markdown(a.out, planned, table, command))
         print(f"wrote {a.summary}", file=sys.stderr)

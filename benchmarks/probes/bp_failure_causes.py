@@ -8,7 +8,7 @@ into: each :class:`~kinder_gym.skills.SkillFailure` by controller and message (n
 messages that differ only in a coordinate count together), and the samples whose reached abstract
 state differed from the operator's prediction.
 
-    uv run python benchmarks/bp_failure_causes.py kinder/DynObstruction2D-o1-v0 --episodes 50
+    uv run python benchmarks/probes/bp_failure_causes.py kinder/DynObstruction2D-o1-v0 --episodes 50
 
 Prints a markdown table: cause, how many failed episodes met it, and how many samples it cost.
 """

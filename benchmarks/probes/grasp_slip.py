@@ -10,7 +10,7 @@ over the hold and over ``--random`` seeded random actions on Shelf3D-o1 and Swee
 Settings are run alternately per seed so that machine load affects them alike.
 
 Usage:
-    python benchmarks/grasp_slip.py [--seeds 1000-1004] [--hold 50] [--random 200]
+    python benchmarks/probes/grasp_slip.py [--seeds 1000-1004] [--hold 50] [--random 200]
         [--settings pyramidal:1 elliptic:10 ...] [--out benchmarks/results/grasp_slip.json]
 """
 

@@ -6,7 +6,7 @@ chain is sampled once (``--samples`` chains, ``--steps`` denoising steps, ``--ga
 top sample's parameters are executed open loop through the env model (no re-planning), as are
 uniform random parameters for the same skeleton. Prints one markdown row.
 
-    uv run python benchmarks/gsc_open_loop.py runs/gsc/ckpt/kinder_StickButton2D-b1-v0 --n 30
+    uv run python benchmarks/probes/gsc_open_loop.py runs/gsc/ckpt/kinder_StickButton2D-b1-v0 --n 30
 """
 
 from __future__ import annotations

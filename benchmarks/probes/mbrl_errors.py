@@ -1,13 +1,13 @@
 """The MBRL models' held-out open-loop errors, as a markdown table.
 
 Reads ``eval.json`` of every run under ``RUNS`` (default ``runs/learning/mbrl/train``, written by
-``benchmarks/mbrl.py`` or ``kinder train mbrl``): the mean L2 error of the state after 1 and 10
-open-loop steps on the recorded actions of the held-out episodes, raw and in per-feature
-z-units, for the model and for the constant-state predictor (``s_{t+k} = s_t``).
+``benchmarks/experiments/learning.py mbrl`` or ``kinder train mbrl``): the mean L2 error of
+the state after 1 and 10 open-loop steps on the recorded actions of the held-out episodes, raw
+and in per-feature z-units, for the model and for the constant-state predictor (``s_{t+k} = s_t``).
 
 Usage::
 
-    uv run python benchmarks/mbrl_errors.py [RUNS]
+    uv run python benchmarks/probes/mbrl_errors.py [RUNS]
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import math
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _fmt(x: float) -> str:

@@ -8,7 +8,7 @@ control the env's controller computes at the start of each env step, the fixture
 restored by hand because rollout states leave them out); the script prints the largest feature
 difference, with the warm start zeroed (``--zero-warmstart``) or kept in the MjData between calls.
 
-    uv run python benchmarks/mujoco_rollout_check.py --env Shelf3D-o1 --steps 3
+    uv run python benchmarks/probes/mujoco_rollout_check.py --env Shelf3D-o1 --steps 3
 """
 
 from __future__ import annotations

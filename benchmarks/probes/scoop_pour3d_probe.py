@@ -13,7 +13,7 @@ rim's plane) and the pinch point. A stage that cannot
 be reached ends the run with the reason.
 
 Usage:
-    python benchmarks/scoop_pour3d_probe.py [--seed 0] [--tip 100] [--drag 0.14]
+    python benchmarks/probes/scoop_pour3d_probe.py [--seed 0] [--tip 100] [--drag 0.14]
         [--forward 0.0] [--grasp-pitch 15] [--preclose 0.65]
 """
 

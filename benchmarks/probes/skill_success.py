@@ -28,13 +28,15 @@ parameter samples from its own sampler:
   (DynScoopPour2D-oN), one parameter sample each, so its counts are single-sample rates.
 
 Usage:
-    python benchmarks/skill_success.py shelf --env kinder/Shelf3D-o4-v0 --seeds 1000-1005
-    python benchmarks/skill_success.py sweep --seeds 1000-1019 [--contacts pyramidal:1]
-    python benchmarks/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 1000-1009
-    python benchmarks/skill_success.py scoop --env kinder/DynScoopPour2D-o10-v0 --seeds 1000-1029
-    python benchmarks/skill_success.py cupboard --seeds 1000-1009
-    python benchmarks/skill_success.py pour --env kinder/ScoopPour3D-o10-v0 --seeds 1000-1011
-    python benchmarks/skill_success.py pickplace --env kinder/SweepSimple3D-o5-<instruction>-v0
+    python benchmarks/probes/skill_success.py shelf --env kinder/Shelf3D-o4-v0 --seeds 1000-1005
+    python benchmarks/probes/skill_success.py sweep --seeds 1000-1019 [--contacts pyramidal:1]
+    python benchmarks/probes/skill_success.py toss --env kinder/Tossing3D-o2-v0 --seeds 1000-1009
+    python benchmarks/probes/skill_success.py scoop --env kinder/DynScoopPour2D-o10-v0 \\
+        --seeds 1000-1029
+    python benchmarks/probes/skill_success.py cupboard --seeds 1000-1009
+    python benchmarks/probes/skill_success.py pour --env kinder/ScoopPour3D-o10-v0 --seeds 1000-1011
+    python benchmarks/probes/skill_success.py pickplace \\
+        --env kinder/SweepSimple3D-o5-<instruction>-v0
 
 A step counts as the planner counts it (``abstract_match``): the predicted abstract state, or
 one with extra atoms of the model's monotone predicates. ``--verbose`` prints a line per skill

@@ -1,43 +1,34 @@
 """The Dynamic3D variants whose step limit is raised above 1000, and the measurements behind it.
 
 Upstream kindergarden 0.2.5 registers no step limit at all (spec environments.md §9), so every
-limit is this project's choice. Dynamic3D ids get 1000 steps, except variants whose objects need
-more with the KinDERGym skills (the reference solution: one object at a time). For those the
-limit is :func:`limit_for` of the most actions a planner-free run of the skills took on the
-measured seeds: 1.5 times it, rounded up to a multiple of 500, so that a plan with unlucky
-samples (the planner draws its own) still fits.
+limit is this project's choice; the rule is ``kinder_garden3d.dynamic3d.step_limits``: 1000
+steps, except variants whose objects need more with the KinDERGym skills (the reference
+solution: one object at a time), which get ``limit_for`` of the most actions a planner-free run
+of the skills took on the measured seeds.
 
-The measurements are ``benchmarks/skill_success.py`` outputs, one JSON file per variant under
+The measurements are ``benchmarks/probes/skill_success.py`` outputs, one JSON file per variant under
 ``benchmarks/results/step_limits/``, named after the id (made with ``--out``, as below). New
 measurements use development seeds (1000 on, the tool's default); the committed files record
 the env reset seeds they were measured on (``seeds``).
-``python benchmarks/step_limits.py`` prints the markdown table of ``step_limits.md`` and exits
-non-zero when a registered limit disagrees with the rule (a test checks the same).
+``python benchmarks/probes/step_limits.py`` prints the markdown table of ``step_limits.md`` and
+exits non-zero when a registered limit disagrees with the rule (a test checks the same).
 
-    python benchmarks/skill_success.py pickplace --env kinder/ScoopPour3D-o20-v0 \\
+    python benchmarks/probes/skill_success.py pickplace --env kinder/ScoopPour3D-o20-v0 \\
         --seeds 1000-1002 \\
         --out benchmarks/results/step_limits/ScoopPour3D-o20.json
-    python benchmarks/step_limits.py
+    python benchmarks/probes/step_limits.py
 """
 
 from __future__ import annotations
 
 import json
-import math
 import sys
 from pathlib import Path
 from typing import Any
 
-RESULTS = Path(__file__).resolve().parent / "results" / "step_limits"
-#: Every Dynamic3D id's limit unless measured otherwise.
-DEFAULT_LIMIT = 1000
-#: Margin over the most actions the skills took, and the rounding step.
-MARGIN, ROUND_TO = 1.5, 500
+from kinder_garden3d.dynamic3d.step_limits import limit_for
 
-
-def limit_for(actions: int) -> int:
-    """The step limit for a variant whose skills took at most ``actions`` actions."""
-    return max(DEFAULT_LIMIT, math.ceil(MARGIN * actions / ROUND_TO) * ROUND_TO)
+RESULTS = Path(__file__).resolve().parents[1] / "results" / "step_limits"
 
 
 def measurements() -> list[dict[str, Any]]:

@@ -7,11 +7,14 @@ where the observation space is an object-centric Box view (ours and upstream's),
 vector order with their type name and feature names.
 
 Usage:
-    python benchmarks/upstream_spaces.py --upstream --out benchmarks/results/upstream_spaces.json
+    python benchmarks/probes/upstream_spaces.py --upstream \\
+        --out benchmarks/results/upstream_spaces.json
         # creates .venv-upstream if needed and dumps upstream's spaces for each of our ids
-    python benchmarks/upstream_spaces.py --ours [--compare benchmarks/results/upstream_spaces.json]
+    python benchmarks/probes/upstream_spaces.py --ours \\
+        [--compare benchmarks/results/upstream_spaces.json]
         # dumps ours (to --out) and/or lists the ids whose sizes or orders differ
-    python benchmarks/upstream_spaces.py --worker ID [ID ...]   # (internal) one JSON line per id
+    python benchmarks/probes/upstream_spaces.py --worker ID \\
+        [ID ...]   # (internal) one JSON line per id
 
 The committed dump (``benchmarks/results/upstream_spaces.json``) is what
 ``packages/kinder-bench/tests/test_upstream_spaces.py`` pins our ids against, without network.
@@ -30,7 +33,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_OUT = ROOT / "benchmarks" / "results" / "upstream_spaces.json"
 
 
@@ -190,7 +193,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     ids = args.ids or our_ids()
     if args.upstream:
-        sys.path.insert(0, str(Path(__file__).parent))
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
         from upstream import UPSTREAM_SPEC, ensure_upstream_venv
 
         recs = run_worker(str(ensure_upstream_venv()), ids)

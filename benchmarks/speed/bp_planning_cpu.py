@@ -9,7 +9,8 @@ that planning took. Episodes whose CPU time is under 60 s would have been planne
 BP default budget on an idle core (the planner is single-threaded).
 
 Usage:
-    python benchmarks/bp_planning_cpu.py --env kinder/SweepIntoDrawer3D-o5-v0 --seeds 1000-1009
+    python benchmarks/speed/bp_planning_cpu.py --env kinder/SweepIntoDrawer3D-o5-v0 \
+        --seeds 1000-1009
         [--timeout 400] [--max-steps 500]
 
 Prints one line per episode and a JSON summary line.

@@ -1,7 +1,7 @@
 """Microbenchmarks of kinder-core's object-centric state: µs per copy, vectorize, devectorize,
 get and set, for states of 5 and 50 objects.
 
-Usage: python benchmarks/core_bench.py [--repeat N]
+Usage: python benchmarks/speed/core_bench.py [--repeat N]
 """
 
 from __future__ import annotations

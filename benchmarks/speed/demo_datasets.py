@@ -11,8 +11,8 @@ For a dataset that is not complete, the time ``make datasets`` still needs is pr
 own rates: remaining episodes × (collection seconds per kept episode + build seconds per episode).
 Envs not built yet use the mean build rate per frame of the built 3D (or 2D) datasets.
 
-    uv run python benchmarks/demo_datasets.py
-    uv run python benchmarks/demo_datasets.py --write-bench Motion2D-p0 --episodes 20
+    uv run python benchmarks/speed/demo_datasets.py
+    uv run python benchmarks/speed/demo_datasets.py --write-bench Motion2D-p0 --episodes 20
 
 ``--write-bench NAME`` also times :class:`~kinder_gym.demos.lerobot_format.DemoWriter` alone on
 the first ``--episodes`` kept episodes of a collected dataset, into a temporary directory, with
@@ -32,7 +32,7 @@ from kinder_bench.demos.collection import BUILD_LOG, kept_attempts, read_attempt
 from kinder_bench.demos.specs import DATASETS
 from kinder_bench.evaluation.results import load_records
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _size(path: Path) -> int:

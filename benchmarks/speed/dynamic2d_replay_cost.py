@@ -2,7 +2,7 @@
 from the state (and take it apart), the priming substep (``warm_start``), and the whole transition.
 
 Usage:
-    uv run python benchmarks/dynamic2d_replay_cost.py \
+    uv run python benchmarks/speed/dynamic2d_replay_cost.py \
         [--out benchmarks/results/dynamic2d_replay_cost.json]
 """
 

@@ -5,9 +5,9 @@ imports nothing of ours unconditionally: KinDER ids are registered through ``kin
 is installed, else through upstream's ``kinder.register_all_environments()``.
 
 Usage:
-    python benchmarks/env_speed.py ID [ID ...] [--steps N] [--seconds S] [--render]
-    python benchmarks/env_speed.py --all            # every registered KinDER id of ours
-    python benchmarks/env_speed.py --category Kinematic2D
+    python benchmarks/speed/env_speed.py ID [ID ...] [--steps N] [--seconds S] [--render]
+    python benchmarks/speed/env_speed.py --all            # every registered KinDER id of ours
+    python benchmarks/speed/env_speed.py --category Kinematic2D
 
 Prints one JSON object per id: make_s, reset_s (mean over seeded resets), steps_per_s (random
 actions from a seeded action space, resetting on episode end), render_s (mean, with --render).

@@ -13,18 +13,20 @@ tests), and reports the agent's own time per episode excluding the model call
 (``agent_info.runtime.overhead_time``: prompt and image building, parsing and running the skills'
 controllers), with its prompt and parse parts.
 
-    uv run python benchmarks/fm_planning.py sizes --out benchmarks/results/fm_prompt_sizes.json
-    uv run python benchmarks/fm_planning.py overhead --episodes 10 \
+    uv run python benchmarks/speed/fm_planning.py sizes \
+        --out benchmarks/results/fm_prompt_sizes.json
+    uv run python benchmarks/speed/fm_planning.py overhead --episodes 10 \
         --out benchmarks/results/fm_overhead.json
-    uv run python benchmarks/fm_planning.py overhead --episodes 5 \
+    uv run python benchmarks/speed/fm_planning.py overhead --episodes 5 \
         --env kinder/DynObstruction2D-o1-v0 --env kinder/DynPushPullHook2D-o5-v0 \
         --env kinder/Transport3D-o2-v0 \
         --env kinder/Shelf3D-o1-v0 --env kinder/SweepIntoDrawer3D-o5-v0 \
         --out benchmarks/results/fm_overhead_more.json
-    uv run python benchmarks/fm_planning.py overhead --agent vlm_plan --episodes 5 \
+    uv run python benchmarks/speed/fm_planning.py overhead --agent vlm_plan --episodes 5 \
         --env kinder/Motion2D-p0-v0 --env kinder/StickButton2D-b1-v0 --env kinder/BaseMotion3D-v0 \
         --env kinder/Shelf3D-o1-v0 --out benchmarks/results/fm_overhead_vlm.json
-    uv run python benchmarks/fm_planning.py table --inputs benchmarks/results/fm_prompt_sizes.json \
+    uv run python benchmarks/speed/fm_planning.py table \
+        --inputs benchmarks/results/fm_prompt_sizes.json \
         benchmarks/results/fm_overhead.json benchmarks/results/fm_overhead_more.json \
         benchmarks/results/fm_overhead_vlm.json
 """

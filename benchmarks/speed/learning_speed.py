@@ -9,8 +9,8 @@ line per row. Figures are machine- and load-dependent: state the machine with th
 
 Usage::
 
-    uv run python benchmarks/learning_speed.py --dataset datasets/Motion2D-p0/data/lerobot
-    uv run python benchmarks/learning_speed.py --dataset DIR --device cuda --batch-size 64
+    uv run python benchmarks/speed/learning_speed.py --dataset datasets/Motion2D-p0/data/lerobot
+    uv run python benchmarks/speed/learning_speed.py --dataset DIR --device cuda --batch-size 64
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 FIXTURE = ROOT / "packages/kinder-gym/tests/data/demos/Motion2D-p0"
 
 

@@ -9,9 +9,9 @@ paper's for each env (``kinder_bench/data/paper_settings.csv``: upstream's per-e
 ``replan_interval``); ``--max-steps`` cuts long episodes to a fixed number of steps (the time is
 then per that many steps, and the table says so).
 
-    uv run python benchmarks/mpc_speed.py --env Motion2D-p0 --episodes 2 --seed 1000
-    uv run python benchmarks/mpc_speed.py --env Shelf3D-o1 --episodes 1 --max-steps 100
-    uv run python benchmarks/mpc_speed.py --agent mbrl --checkpoint RUN --env Motion2D-p0 \
+    uv run python benchmarks/speed/mpc_speed.py --env Motion2D-p0 --episodes 2 --seed 1000
+    uv run python benchmarks/speed/mpc_speed.py --env Shelf3D-o1 --episodes 1 --max-steps 100
+    uv run python benchmarks/speed/mpc_speed.py --agent mbrl --checkpoint RUN --env Motion2D-p0 \
         --episodes 1 --max-steps 20
 """
 
@@ -38,7 +38,7 @@ from kinder_bench.evaluation.runner import agent_seed, episode_seeds
 from kinder_bench.reporting.paper import paper_settings
 
 PAPER_RESULTS = (
-    Path(__file__).resolve().parents[1]
+    Path(__file__).resolve().parents[2]
     / "packages/kinder-bench/src/kinder_bench/data/paper_results.csv"
 )
 

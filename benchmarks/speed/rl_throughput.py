@@ -6,7 +6,7 @@ steps/s of ``train`` (model construction excluded). Next to it, ``env only`` is 
 stepped with random actions (no learner): the ceiling the env sets. Prints one JSON line per
 measurement, then a markdown table.
 
-    nice -n 10 uv run python benchmarks/rl_throughput.py --algo ppo --env Motion2D-p0 \\
+    nice -n 10 uv run python benchmarks/speed/rl_throughput.py --algo ppo --env Motion2D-p0 \\
         --vec dummy --vec subproc --threads 1 --threads 0 --steps 16384
 
 ``--threads 0`` means torch's default thread count.

@@ -2,11 +2,13 @@
 (touch pads and the phone's AR pose path), and frames per second of the 2D pygame window.
 
 Usage:
-    python benchmarks/teleop_bench.py web [--env kinder/BaseMotion3D-v0] [--hz 10] [--seconds 20]
+    python benchmarks/speed/teleop_bench.py web [--env kinder/BaseMotion3D-v0] [--hz 10] \
+        [--seconds 20]
         [--frame-every 3]
-    python benchmarks/teleop_bench.py phone [--env kinder/Shelf3D-o1-v0] [--hz 10] [--seconds 20]
-    python benchmarks/teleop_bench.py window [--env kinder/Motion2D-p0-v0] [--ticks 400]
-    python benchmarks/teleop_bench.py table RESULTS.jsonl   # the README tables of saved records
+    python benchmarks/speed/teleop_bench.py phone [--env kinder/Shelf3D-o1-v0] [--hz 10] \
+        [--seconds 20]
+    python benchmarks/speed/teleop_bench.py window [--env kinder/Motion2D-p0-v0] [--ticks 400]
+    python benchmarks/speed/teleop_bench.py table RESULTS.jsonl  # README tables of saved records
 
 ``web`` starts the real server (uvicorn on 127.0.0.1) and the teleop loop in this process and a
 WebSocket client thread that streams input messages at 60 Hz (base and arm clutches engaged, both

@@ -11,7 +11,7 @@ metres (no drag) — an upper bound on a toss from behind the barrier. The bin's
 1.3–2.1 m beyond the barrier line (x = 1.3), which the released cube must also pass.
 
 Usage:
-    python benchmarks/tossing_speed.py [--steps 15] [--height 1.0]
+    python benchmarks/speed/tossing_speed.py [--steps 15] [--height 1.0]
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ each N; steps/s counts sub-env steps (N per call). Beside it: our single env and
 ``kindergarden`` 0.2.5's single env, measured by ``env_speed.py`` (random actions, resets on
 episode end) under each interpreter, as ``upstream.py`` does. Run it on one core::
 
-    taskset -c 1 nice -n 10 .venv/bin/python benchmarks/vector_speed.py \\
+    taskset -c 1 nice -n 10 .venv/bin/python benchmarks/speed/vector_speed.py \\
         --out benchmarks/results/kinematic2d_batched.json
 
 ``--ppo`` instead times PPO training (env steps/s of the whole ``train`` loop, SB3) with the
@@ -28,7 +28,7 @@ from typing import Any
 import gymnasium
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from upstream import ensure_upstream_venv, run_speed
 

@@ -16,11 +16,11 @@ from kinder_bench.evaluation.protocol import DEVELOPMENT_SEED, PAPER_SEEDS
 BENCHMARKS = Path(__file__).resolve().parents[3] / "benchmarks"
 #: The development tools and their seed options (``benchmarks/*.py``).
 TOOLS = {
-    "bp_failure_causes.py": "--seed",
-    "skill_success.py": "--seeds",
-    "bp_planning_cpu.py": "--seeds",
-    "grasp_slip.py": "--seeds",
-    "gsc_open_loop.py": "--seed-start",
+    "probes/bp_failure_causes.py": "--seed",
+    "probes/skill_success.py": "--seeds",
+    "speed/bp_planning_cpu.py": "--seeds",
+    "probes/grasp_slip.py": "--seeds",
+    "probes/gsc_open_loop.py": "--seed-start",
 }
 
 

@@ -1,7 +1,7 @@
 """Every id's observation and action spaces against upstream kindergarden 0.2.5 (no network).
 
 The reference is ``benchmarks/results/upstream_spaces.json``, dumped from upstream with
-``python benchmarks/upstream_spaces.py --upstream`` (``gymnasium.make`` on each id, as a user
+``python benchmarks/probes/upstream_spaces.py --upstream`` (``gymnasium.make`` on each id, as a user
 would). Each id must have upstream's observation size, action size, object names in vector order
 and each object's feature names, except where :data:`EXCEPTIONS` documents why not.
 """

@@ -265,7 +265,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
     * v0 (contact update): elliptic friction cones and `impratio = 10` as upstream's robot
       models (MuJoCo's pyramidal cone and 1 before; `Dynamic3DConfig(cone="pyramidal",
       impratio=1)` restores them). A held 2 cm cube slipped about 0.9 mm/s out of the pads
-      before and 0.05 mm/s now (`benchmarks/grasp_slip.py`).
+      before and 0.05 mm/s now (`benchmarks/probes/grasp_slip.py`).
     * v0 (spaces update): observation and action spaces match upstream kindergarden 0.2.5 id by
       id (object names, order and feature lists; `benchmarks/results/upstream_spaces.json`):
       the kitchen scene adds the upper cooking-area cupboard and the left corner unit and

@@ -30,6 +30,7 @@ import numpy as np
 
 from kinder_garden3d.dynamic3d.assets import CHAIR_MODELS, FIXTURE_TYPES, OBJECT_TYPES
 from kinder_garden3d.dynamic3d.geometry import Array
+from kinder_garden3d.dynamic3d.step_limits import DEFAULT_LIMIT
 
 TASKS_DIR = Path(__file__).with_name("tasks")
 SCENES_DIR = TASKS_DIR / "scenes"
@@ -201,7 +202,7 @@ def variant_table() -> list[VariantInfo]:
                 f"{display}: family: must equal the folder name {path.parent.name!r}, "
                 f"got {family!r}"
             )
-        steps = int(raw.get("max_episode_steps", 1000))
+        steps = int(raw.get("max_episode_steps", DEFAULT_LIMIT))
         variants = raw.get("variants")
         if variants is None:
             stem = path.stem
@@ -452,7 +453,7 @@ def load_task(task: str, num_objects: int | None = None, options: Sequence[str] 
     if "goal" not in raw:
         raise v.error("goal", "missing")
     goal = v.goal(raw["goal"], "goal", entities, regions, objects)
-    steps = v.integer(raw.get("max_episode_steps", 1000), "max_episode_steps")
+    steps = v.integer(raw.get("max_episode_steps", DEFAULT_LIMIT), "max_episode_steps")
     if steps <= 0:
         raise v.error("max_episode_steps", f"must be positive, got {steps}")
     clearance = v.number(raw.get("robot_clearance", 0.0), "robot_clearance")
