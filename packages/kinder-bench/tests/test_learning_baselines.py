@@ -34,7 +34,7 @@ from kinder_bench.baselines.ood import run_ood
 from kinder_bench.cli import app
 from kinder_bench.evaluation.envs import make_env
 from kinder_bench.evaluation.runner import RunConfig, run_benchmark
-from kinder_bench.training.checkpoints import read_checkpoint
+from kinder_bench.training.checkpoints import CheckpointError, load_checkpoint, read_checkpoint
 
 FIXTURE = Path(__file__).parents[2] / "kinder-gym" / "tests" / "data" / "demos" / "Motion2D-p0"
 MOTION = "kinder/Motion2D-p0-v0"
@@ -225,6 +225,10 @@ def test_dpes_learns_the_toy_task_far_above_random(toy_direct: Path, tmp_path: P
         ),
         progress=False,
     )  # fmt: skip
+    ckpt = load_checkpoint(out, ("dpes",))
+    assert ckpt.step == 300 and ckpt.args["method"] == "dpes" and ckpt.info["env_state_names"]
+    with pytest.raises(CheckpointError, match=r"holds a dpes policy.*not mbrl"):
+        make_agent("mbrl", make_env(TOY_ID), {"checkpoint": str(out)})
     runs = [
         RunConfig(TOY_ID, "dpes", {"checkpoint": str(out)}, seeds=(0,), episodes=20, max_steps=40),
         RunConfig(TOY_ID, "random", seeds=(0,), episodes=20, max_steps=40),

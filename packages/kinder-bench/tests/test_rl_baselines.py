@@ -159,6 +159,8 @@ def test_sac_trains_checkpoints_its_replay_buffer_and_resumes(tmp_path: Path) ->
     first = train("sac", SACArgs(**values, total_steps=512), tmp_path, progress=False)
     assert first.steps == 512
     assert (first.checkpoint / "replay_buffer.pkl").is_file()
+    ckpt = read_checkpoint(first.checkpoint, ("sac",))
+    assert ckpt.step == 512 and ckpt.args["buffer_size"] == 4096 and ckpt.info["obs_shape"] == [19]
     second = train("sac", SACArgs(**values, total_steps=768), tmp_path, progress=False)
     assert second.resumed_from == 512 and second.steps == 768
     from kinder_bench.baselines.rl.train import KinderSAC
