@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 from pathlib import Path
 
 import pytest
@@ -125,3 +126,14 @@ def test_attribution_table_sets_the_papers_bp_beside_our_default() -> None:
     assert "| StickButton2D-b1 | not run | 0.98 ± 0.02 | -- |" in attribution_markdown(
         [ours, later], [BUTTON]
     )
+
+
+def test_every_results_page_says_when_it_was_measured() -> None:
+    """A results page names a date (YYYY-MM-DD) or a commit, so a reader knows which code its
+    figures describe."""
+    pages = sorted((REPO / "benchmarks" / "results").glob("*.md"))
+    if not pages:
+        pytest.skip("not in the repository checkout")
+    when = re.compile(r"\b20\d\d-\d\d-\d\d\b|commit `?[0-9a-f]{7,40}\b")
+    undated = [p.name for p in pages if not when.search(p.read_text())]
+    assert not undated, f"results pages without a date or commit: {undated}"
