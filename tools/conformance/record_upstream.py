@@ -113,7 +113,9 @@ def record(python: Path, env_id: str, out_dir: Path, args: argparse.Namespace) -
         )
     if proc.returncode != 0:
         raise RuntimeError(f"{env_id}: upstream worker failed:\n{proc.stderr[-2000:]}")
-    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
+    # Upstream's pybullet robot prints "base_root" without a newline: a result line may carry
+    # that prefix, so each line's JSON object is taken from where it starts.
+    lines = [ln[ln.index('{"') :] for ln in proc.stdout.splitlines() if '{"' in ln]
     result: dict[str, object] = json.loads(lines[-1])
     return result
 

@@ -50,6 +50,8 @@ SEED_FOR_SEED = {
     *(f"kinder/Obstruction3D-o{n}-v0" for n in range(5)),
     *(f"kinder/Table3D-o{n}-v0" for n in (1, 2, 3)),
     *(f"kinder/Transport3D-o{n}-v0" for n in (1, 2)),
+    *(f"kinder/KinematicShelf3D-o{n}-v0" for n in (1, 2, 3, 5, 10)),
+    *(f"kinder/KinematicCylinderShelf3D-o{n}-v0" for n in (1, 2, 3)),
 }
 #: Ids whose resets differ from upstream's on purpose, and the features that differ (Packing3D:
 #: upstream's parts start 1 cm above the table, a bug there; ours rest on it).

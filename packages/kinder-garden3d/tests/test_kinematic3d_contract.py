@@ -26,6 +26,8 @@ EXPECTED_BOX_SIZES = {
     **{f"kinder/Packing3D-p{n}-v0": 31 + 12 * n for n in (1, 2, 3)},
     **{f"kinder/Table3D-o{n}-v0": 31 + 12 * n for n in (1, 2, 3)},
     **{f"kinder/Transport3D-o{n}-v0": 43 + 12 * n for n in (1, 2)},
+    **{f"kinder/KinematicShelf3D-o{n}-v0": 26 + 12 * n for n in (1, 2, 3, 5, 10)},
+    **{f"kinder/KinematicCylinderShelf3D-o{n}-v0": 26 + 12 * n for n in (1, 2, 3)},
 }
 
 
@@ -63,6 +65,8 @@ def test_action_magnitudes_follow_the_spec():
         "kinder/Obstruction3D-o1-v0": 0.2,
         "kinder/Packing3D-p1-v0": 0.2,
         "kinder/Transport3D-o1-v0": 0.2,
+        "kinder/KinematicShelf3D-o1-v0": 0.2,
+        "kinder/KinematicCylinderShelf3D-o1-v0": 0.2,
     }
     for env_id, mag in mags.items():
         env = kinder_core.make_object_centric(env_id)
@@ -102,7 +106,7 @@ def test_importing_the_package_loads_no_simulator():
         "print(len(kinder_core.list_envs('Kinematic3D')))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "14"
+    assert out.stdout.strip() == "22"
 
 
 def test_each_env_has_a_private_client_and_close_releases_it():
@@ -159,3 +163,11 @@ def test_gymnasium_make_gives_the_box_view():
     assert obs.shape == (22,)
     assert env.spec is not None and env.spec.max_episode_steps == 200
     env.close()
+
+
+@pytest.mark.parametrize(
+    "env_id", ["kinder/KinematicShelf3D-o2-v0", "kinder/KinematicCylinderShelf3D-o2-v0"]
+)
+def test_shelf_families_draw_vector_envs_and_processes_alike(env_id):
+    check_vector_consistency(env_id)
+    check_cross_process_determinism(env_id)

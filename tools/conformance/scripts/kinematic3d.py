@@ -5,9 +5,10 @@ phases read off the state's features, so the recorded trajectories move the base
 contact, grasp, carry and place:
 
 * ``to-target`` (BaseMotion3D): drive the base straight at the target.
-* ``pick-<obj>`` (Table3D, Obstruction3D, Transport3D): drive the base (Transport3D: turn, then
-  translate to stand 0.6 m from the cube on its side away from the box) so the object is in
-  front of the arm, move the arm above the object with the tool pointing down,
+* ``pick-<obj>`` (Table3D, Obstruction3D, Transport3D, KinematicShelf3D,
+  KinematicCylinderShelf3D): drive the base (Transport3D and the shelf families: turn, then
+  translate to stand 0.6 m from the object on its side away from the box or the shelf) so the
+  object is in front of the arm, move the arm above the object with the tool pointing down,
   descend until the tool frame is 3 cm above the object's centre, close, lift 15 cm, carry
   (turn the base by 0.3 rad), lower back until the object is about 6 mm above where it started,
   and open.
@@ -121,9 +122,12 @@ def _to_target(bound: float) -> Policy:
     return policy
 
 
-def _pick(obj: str, base_z: float, bound: float, avoid: str | None = None) -> Policy:
+def _pick(
+    obj: str, base_z: float, bound: float, avoid: str | None = None, top: float = 0.0
+) -> Policy:
     """See the module docstring; with ``avoid`` the base first drives to stand 0.6 m from the
-    object, on its side away from the object ``avoid``."""
+    object, on its side away from the object ``avoid``; ``top`` raises the arm's targets (the
+    object's half height when it is taller than a cube)."""
     mem: dict[str, object] = {"phase": "drive" if avoid else "above"}
 
     def arm_to(s: State, target: np.ndarray, grip: float) -> list[float] | None:
@@ -139,7 +143,7 @@ def _pick(obj: str, base_z: float, bound: float, avoid: str | None = None) -> Po
 
     def policy(s: State, t: int) -> list[float] | None:
         base, _ = _robot(s)
-        centre = np.array([s[f"{obj}.pose_x"], s[f"{obj}.pose_y"], s[f"{obj}.pose_z"]])
+        centre = np.array([s[f"{obj}.pose_x"], s[f"{obj}.pose_y"], s[f"{obj}.pose_z"] + top])
         if "start" not in mem:
             mem["start"] = centre.copy()
         start = np.asarray(mem["start"])
@@ -205,4 +209,10 @@ def scripts(env_id: str, feature_names: list[str]) -> dict[str, Policy]:
         return {"pick-target_block": _pick("target_block", -0.4, 0.2)}
     if "Transport3D" in env_id:
         return {"pick-cube0": _pick("cube0", 0.0, 0.2, avoid="box0")}
+    if "KinematicShelf3D" in env_id:
+        return {"pick-cube0": _pick("cube0", 0.0, 0.2, avoid="shelf")}
+    if "KinematicCylinderShelf3D" in env_id:
+        # From above the top of the 20 cm cylinder0 (the recording exercises the collision
+        # and grasp checks; a side grasp needs a planner).
+        return {"pick-cylinder0": _pick("cylinder0", 0.0, 0.2, avoid="shelf", top=0.1)}
     return {}

@@ -43,7 +43,8 @@ def _families(category: str, module: str, dist: str, names: str) -> dict[str, Fa
     return {n: FamilySource(category, module, dist) for n in names.split()}
 
 
-# The static table of all 25 KinDERGarden families.
+# The static table of the KinDERGarden families: the paper's 25, then the upstream 0.2.5
+# families the paper does not list (KinematicShelf3D, KinematicCylinderShelf3D).
 FAMILY_SOURCES: dict[str, FamilySource] = {
     **_families(
         "Kinematic2D",
@@ -62,7 +63,8 @@ FAMILY_SOURCES: dict[str, FamilySource] = {
         "Kinematic3D",
         "kinder_garden3d",
         "kinder-garden3d",
-        "BaseMotion3D Obstruction3D Packing3D Table3D Transport3D",
+        "BaseMotion3D Obstruction3D Packing3D Table3D Transport3D KinematicShelf3D "
+        "KinematicCylinderShelf3D",
     ),
     **_families(
         "Dynamic3D",
@@ -247,7 +249,7 @@ def _import_available() -> None:
 
 
 def families(category: str | None = None) -> list[str]:
-    """All 25 family names (optionally of one category), installed or not."""
+    """All family names (optionally of one category), installed or not."""
     _check_category(category)
     return [f for f, s in FAMILY_SOURCES.items() if category in (None, s.category)]
 

@@ -49,6 +49,7 @@ from kinder_garden3d.kinematic3d.geometry import (
 from kinder_garden3d.kinematic3d.object_types import (
     ALL_TYPES,
     CUBOID_TYPE,
+    FIXTURE_TYPE,
     POINT_TYPE,
     ROBOT_TYPE,
     SOLID,
@@ -80,6 +81,8 @@ _NO_GRASP_TF = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 #: ``None`` = continuous). They are wider than the user guide's ranges that the shared robot
 #: model (and Dynamic3D) uses.
 KINOVA_URDF_JOINT_LIMITS: tuple[float | None, ...] = (None, 2.41, None, 2.66, None, 2.23, None)
+#: Observed object types that are solid bodies (collide, may support others).
+SOLID_TYPES = (CUBOID_TYPE, TRIANGLE_TYPE, FIXTURE_TYPE)
 #: A held object with every half extent above this carries the objects inside it.
 CONTAINER_MIN_HALF_EXTENT = 0.04
 
@@ -352,7 +355,7 @@ class Kinematic3DEnv(ObjectCentricEnv):
         self._sync(state)
         scene, tol = self._scene, self.config.collision_tolerance
         names = [n for n, c in self._constants.items() if c.spec.collide]
-        names += [o.name for o in state if o.type in (CUBOID_TYPE, TRIANGLE_TYPE)]
+        names += [o.name for o in state if o.type in SOLID_TYPES]
         bodies = {n: scene.body(n) for n in names}
         found = [("robot", n) for n, b in bodies.items() if scene.collides(scene.robot, [b], tol)]
         for i, a in enumerate(names):
@@ -426,7 +429,7 @@ class Kinematic3DEnv(ObjectCentricEnv):
         bodies += [
             self._scene.body(o.name)
             for o in state
-            if o.type in (CUBOID_TYPE, TRIANGLE_TYPE) and o.name not in exclude
+            if o.type in SOLID_TYPES and o.name not in exclude
         ]
         return bodies
 

@@ -98,10 +98,11 @@ class Part:
     """One convex piece of an object, in the object's frame.
 
     ``kind`` "box": ``params`` = half extents; "prism": ``params`` = the triangle's 2-D vertices
-    (3×2, flattened) followed by the half depth.
+    (3×2, flattened) followed by the half depth; "cylinder": ``params`` = (radius, half height),
+    axis along the local z axis (no vertex form: :func:`part_vertices` rejects it).
     """
 
-    kind: Literal["box", "prism"]
+    kind: Literal["box", "prism", "cylinder"]
     params: tuple[float, ...]
     pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
@@ -145,6 +146,8 @@ def peg_part(top_z: float) -> Part:
 
 def part_vertices(part: Part, pos: Array, quat: Array) -> Array:
     """World vertices of a part of an object at (pos, quat)."""
+    if part.kind == "cylinder":
+        raise ValueError("a cylinder part has no vertices; use the pybullet scene's queries")
     if part.kind == "box":
         hx, hy, hz = part.params
         signs = np.array(

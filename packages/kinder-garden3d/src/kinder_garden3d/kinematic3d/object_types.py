@@ -60,13 +60,16 @@ TRIANGLE_TYPE = Type(
 #: A visual-only point (e.g. a navigation target).
 POINT_TYPE = Type("Kinematic3DPoint", ("x", "y", "z"))
 
+#: A static, observed object whose shape is fixed by its family (e.g. a shelf): only its pose.
+FIXTURE_TYPE = Type("Kinematic3DFixture", POSE_FEATURES)
+
 SOLID = -1.0
 CONTAINER = 1.0
 WALL_THICKNESS = 0.01
 EQUILATERAL = 0.0
 RIGHT = 1.0
 
-ALL_TYPES = (ROBOT_TYPE, CUBOID_TYPE, TRIANGLE_TYPE, POINT_TYPE)
+ALL_TYPES = (ROBOT_TYPE, CUBOID_TYPE, TRIANGLE_TYPE, POINT_TYPE, FIXTURE_TYPE)
 
 
 def robot_action_space(max_magnitude: float) -> spaces.Box:
@@ -101,4 +104,7 @@ CUBOID_FEATURE_DOC = (
 TRIANGLE_FEATURE_DOC = (
     "`Kinematic3DTriangle` (12): `pose_x … pose_qw, grasp_active, triangle_type, side_a, side_b, "
     "depth` (triangle_type 0 = equilateral, 1 = right)"
+)
+FIXTURE_FEATURE_DOC = (
+    "`Kinematic3DFixture` (7): `pose_x, pose_y, pose_z, pose_qx, pose_qy, pose_qz, pose_qw`"
 )

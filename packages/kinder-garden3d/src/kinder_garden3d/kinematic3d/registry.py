@@ -33,6 +33,18 @@ KINEMATIC3D_FAMILIES: tuple[tuple[str, str, dict[str, dict[str, int]], int], ...
         {f"o{n}": {"num_cubes": n} for n in (1, 2)},
         500,
     ),
+    (
+        "KinematicShelf3D",
+        f"{_MODULE}.kinematic_shelf3d:KinematicShelf3DEnv",
+        {f"o{n}": {"num_cubes": n} for n in (1, 2, 3, 5, 10)},
+        500,
+    ),
+    (
+        "KinematicCylinderShelf3D",
+        f"{_MODULE}.kinematic_cylinder_shelf3d:KinematicCylinderShelf3DEnv",
+        {f"o{n}": {"num_cylinders": n} for n in (1, 2, 3)},
+        500,
+    ),
 )
 
 

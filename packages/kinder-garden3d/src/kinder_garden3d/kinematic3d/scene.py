@@ -201,6 +201,20 @@ class PyBulletScene:
                     pb.GEOM_BOX, halfExtents=list(part.params), rgbaColor=spec.rgba,
                     visualFramePosition=frame, physicsClientId=cid,
                 )  # fmt: skip
+            elif part.kind == "cylinder":
+                radius, height = part.params[0], 2.0 * part.params[1]
+                col = (
+                    pb.createCollisionShape(
+                        pb.GEOM_CYLINDER, radius=radius, height=height,
+                        collisionFramePosition=frame, physicsClientId=cid,
+                    )
+                    if spec.collide
+                    else -1
+                )  # fmt: skip
+                vis = pb.createVisualShape(
+                    pb.GEOM_CYLINDER, radius=radius, length=height, rgbaColor=spec.rgba,
+                    visualFramePosition=frame, physicsClientId=cid,
+                )  # fmt: skip
             else:
                 hull = _shrunk_prism(part)
                 col = (
