@@ -1,0 +1,221 @@
+"""The KinematicShelf3D planning model: pick every block off the floor onto the shelf's top board.
+
+Upstream has no planning model for this family. Concepts (over the blocks):
+
+* ``HandEmpty(robot)`` / ``Holding(robot, block)``.
+* ``OnFloor(block)``: not held, centre below the env's on-shelf height.
+* ``OnShelf(block)``: not held, centre at or above it (the env's goal test for one block).
+
+Operators: ``Pick(?robot, ?block)`` (pre HandEmpty, OnFloor; add Holding; delete HandEmpty,
+OnFloor) and ``Place(?robot, ?block)`` (pre Holding; add HandEmpty, OnShelf; delete Holding).
+Goal: every block ``OnShelf`` and ``HandEmpty`` (a release opens the gripper, which the env's
+goal asks for).
+
+Skills (motions collision-checked with the env's own pybullet geometry; OMPL for the base and the
+arm; IK with the robot model's solver):
+
+* Pick (:class:`BlockPickController`): Transport3D's pick, with the fingers closing across the
+  block's narrow side (a block is 10 cm long, wider than the open gripper).
+* Place (:class:`ShelfPlaceController`): retract the arm (carrying the block), drive to a
+  sampled standoff in front of (or behind) the shelf, reach above a sampled spot on the top
+  board, descend until the block is 3 mm above it, open, lift. The top board is the one a
+  top-down grasp can reach: the boards below it are only 0.254 m apart, less than the wrist
+  needs.
+
+Imports kinder_garden3d (the ``[3d]`` extra).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from gymnasium import spaces
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.kinematic3d.geometry import quat_to_matrix
+from kinder_garden3d.kinematic3d.kinematic_shelf3d import KinematicShelf3DConfig
+from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator, place_operator
+from kinder_gym.models.kinematic3d.tidybot import (
+    HOME,
+    PLANNING_MARGIN,
+    ConfigChecker,
+    ConfigWaypoint,
+    PickController,
+    ReachController,
+    arm_path,
+    base_path,
+    config_delta,
+    hand_atoms,
+    hand_predicates,
+    solve_ik,
+    tool_to_pinch,
+    top_down_quat,
+    wrap,
+    yaw_of,
+)
+from kinder_gym.motion_planning import params_seed, segment_valid
+from kinder_gym.operators import GroundOperator
+from kinder_gym.skills import Skill, SkillFailure
+
+#: How far above the release pose the place reaches first (m). Shorter than the pick's
+#: approach: the release pose is near the top of the arm's top-down reach (about 0.92 m).
+PLACE_APPROACH = 0.05
+
+
+class BlockPickController(PickController):
+    """Pick a block off the floor from a sampled standoff, the fingers closing across its
+    narrower horizontal side. Objects: ``(robot, block)``."""
+
+    def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
+        robot, obj = self.objects
+        dist = 0.45 + 0.2 * float(self.params[0])
+        f = state[obj]
+        pos = np.asarray(f[:3], dtype=np.float64)
+        base = np.asarray(state[robot][:2], dtype=np.float64)
+        angle = math.atan2(pos[1] - base[1], pos[0] - base[0]) + (float(self.params[1]) - 0.5) * (
+            math.pi
+        )
+        obj_yaw = yaw_of(np.asarray(f[3:7]))
+        # The fingers close along ee_yaw + π/2; across the block's y side when it is the
+        # narrower one (ee_yaw = obj_yaw or obj_yaw + π), else across its x side.
+        close_dir = obj_yaw + (math.pi / 2 if f[10] <= f[9] else 0.0)
+        candidates = [close_dir - math.pi / 2 + k * math.pi for k in (0, 1)]
+        ee_yaw = min(candidates, key=lambda y: abs(wrap(y - angle)))
+        base_goal = self._standoff(state, pos, dist, angle)
+        return self._sequence(state, base_goal, pos, top_down_quat(ee_yaw), -1.0, salt=1)
+
+
+class ShelfPlaceController(ReachController):
+    """Place the held block on the shelf's top board. Objects: ``(robot, block)``; the shelf is
+    the env's."""
+
+    params_space = spaces.Box(0.0, 1.0, (4,), dtype=np.float64)
+    params_doc = (
+        "(u, v, dist, side): the block's centre goes to fractions (u, v) of the top board "
+        "(shrunk by the block's footprint radius and 2 cm), 3 mm above it; the base stands "
+        "0.38 + 0.12·dist metres away, in front of the shelf (side < 1/2) or behind it."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.objects[1], "grasp_active") > 0.5
+
+    def _config(self) -> KinematicShelf3DConfig:
+        cfg = self.context.config
+        if not isinstance(cfg, KinematicShelf3DConfig):
+            raise TypeError(f"{type(self).__name__} needs a KinematicShelf3D env, got {cfg!r}")
+        return cfg
+
+    def planning_bounds(self, state: ObjectCentricState) -> tuple[float, float, float, float]:
+        """The robot, the blocks and the shelf, grown by ``PLANNING_MARGIN``."""
+        x0, x1, y0, y1 = super().planning_bounds(state)
+        sx, sy, _ = self._config().shelf_pos
+        m = PLANNING_MARGIN
+        return min(x0, sx - m), max(x1, sx + m), min(y0, sy - m), max(y1, sy + m)
+
+    def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
+        robot, obj = self.objects
+        u, v, dist_p, side = (float(p) for p in self.params)
+        cfg = self._config()
+        shelf = cfg.shelf
+        sx, sy, sz = cfg.shelf_pos
+        top = shelf.surface_heights(sz)[-1]
+        o_half = np.asarray(state[obj][9:12], dtype=np.float64)
+        r = float(np.hypot(o_half[0], o_half[1])) + 0.02
+        hx, hy = max(0.0, shelf.width / 2 - r), max(0.0, shelf.depth / 2 - r)
+        px, py = sx - hx + 2 * u * hx, sy - hy + 2 * v * hy
+        pz = top + o_half[2] + 0.003
+        angle = math.pi / 2 if side < 0.5 else -math.pi / 2
+        dist = 0.38 + 0.12 * dist_p
+        # The block hangs below the end effector by the grasp transform (in the tool frame).
+        tf_p = np.asarray(state[robot][12:15], dtype=np.float64)
+        tool_q = top_down_quat(angle)
+        tool_p = np.array([px, py, pz]) - quat_to_matrix(tool_q) @ tf_p
+        ee_p, ee_q = tool_to_pinch(tool_p, tool_q)
+        base_goal = self._standoff(state, np.array([px, py]), dist, angle)
+        return self._place_sequence(state, base_goal, ee_p, ee_q)
+
+    def _place_sequence(
+        self,
+        state: ObjectCentricState,
+        base_goal: np.ndarray,
+        ee_pos: np.ndarray,
+        ee_quat: np.ndarray,
+    ) -> list[ConfigWaypoint]:
+        """Retract, drive, reach ``PLACE_APPROACH`` above the release pose, descend, open, lift
+        (the shared reach sequence with a shorter approach)."""
+        checker = ConfigChecker(self.context, state)
+        q = np.asarray(state[self.robot][:10], dtype=np.float64)
+        seed = params_seed(self.params, 2)
+        wps: list[ConfigWaypoint] = []
+        if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
+            path = arm_path(checker, q, HOME, seed)
+            wps += [self._wp(p) for p in path]
+            q = path[-1]
+        if np.max(np.abs(config_delta(q[:3], base_goal))) > 1e-6:
+            path = base_path(checker, q, base_goal, self.planning_bounds(state), seed)
+            wps += [self._wp(p) for p in path]
+            q = path[-1]
+        above = solve_ik(ee_pos + np.array([0.0, 0.0, PLACE_APPROACH]), ee_quat, q[:3], HOME)
+        at = solve_ik(ee_pos, ee_quat, q[:3], above)
+        q_above = np.concatenate([q[:3], above])
+        q_at = np.concatenate([q[:3], at])
+        wps += [self._wp(p) for p in arm_path(checker, q, above, seed + 1)]
+        if not segment_valid(q_above, q_at, checker, np.full(10, 0.05)):
+            raise SkillFailure(f"{type(self).__name__}: the final approach collides")
+        wps.append(self._wp(q_at, 1.0))
+        wps.append(self._wp(q_above))
+        return wps
+
+
+def create_model(env: ObjectCentricEnv) -> PlanningModel:
+    """The KinematicShelf3D planning model (any number of blocks)."""
+    robot_obj: Object = env.robot  # type: ignore[attr-defined]
+    cubes: list[Object] = list(env.cubes)  # type: ignore[attr-defined]
+    cfg = env.config  # type: ignore[attr-defined]
+    on_shelf_z = cfg.shelf_pos[2] + cfg.shelf.spacing - cfg.on_shelf_z_tolerance
+
+    HandEmpty, Holding = hand_predicates()
+    OnFloor = Predicate("OnFloor", (CUBOID_TYPE,))
+    OnShelf = Predicate("OnShelf", (CUBOID_TYPE,))
+
+    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        atoms = hand_atoms(state, robot_obj, HandEmpty)
+        for c in cubes:
+            if state.get(c, "grasp_active") > 0.5:
+                atoms.add(Holding.ground([robot_obj, c]))
+            elif state.get(c, "pose_z") >= on_shelf_z:
+                atoms.add(OnShelf.ground([c]))
+            else:
+                atoms.add(OnFloor.ground([c]))
+        return frozenset(atoms)
+
+    c = Variable("?block", CUBOID_TYPE)
+    pick = pick_operator("Pick", HandEmpty, Holding, c, [OnFloor.lift([c])])
+    place = place_operator("Place", HandEmpty, Holding, c, [OnShelf.lift([c])])
+
+    def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
+        return op.objects[1] in cubes
+
+    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        return frozenset({HandEmpty.ground([robot_obj])} | {OnShelf.ground([b]) for b in cubes})
+
+    return PlanningModel(
+        name="kinematic_shelf3d",
+        env=env,
+        types=(ROBOT_TYPE, CUBOID_TYPE),
+        predicates=(HandEmpty, Holding, OnFloor, OnShelf),
+        skills=(Skill(pick, BlockPickController, env), Skill(place, ShelfPlaceController, env)),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        max_skill_horizon=300,
+        operator_filter=keep,
+        objects_fn=lambda s: [robot_obj, *cubes],
+    )
+
+
+__all__: Sequence[str] = ["BlockPickController", "ShelfPlaceController", "create_model"]
