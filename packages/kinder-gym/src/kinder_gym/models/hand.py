@@ -4,7 +4,8 @@ A model's hand has ``HandEmpty(robot)`` and ``Holding(robot, item)`` predicates 
 builds them for its robot type); picking and placing change them the same way in every family,
 whatever else (the source or target of the item) they need and change. The robot's moves that
 need the hand empty and leave it so (a push, a press, opening a drawer) are
-:func:`empty_hand_operator`.
+:func:`empty_hand_operator`; those that use a held tool and keep holding it (a hook, a stick, a
+scoop, a wiper) are :func:`tool_operator`.
 """
 
 from __future__ import annotations
@@ -24,16 +25,16 @@ def pick_operator(
     also_add: Sequence[LiftedAtom] = (),
     params: Sequence[Variable] = (),
     delete_source: bool = True,
+    also_need: Sequence[LiftedAtom] = (),
 ) -> LiftedOperator:
     """``name(?robot, item, *params)``, ``?robot`` of ``hand_empty``'s type: with the hand empty
-    and ``source`` true, hold ``item`` (and make ``also_add`` true); the hand being empty and
-    (unless not ``delete_source``) ``source`` are deleted."""
+    and ``source`` (and ``also_need``) true, hold ``item`` (and make ``also_add`` true); the hand
+    being empty and (unless not ``delete_source``) ``source`` are deleted."""
     r = Variable("?robot", hand_empty.types[0])
-    pre = frozenset({hand_empty.lift([r]), *source})
-    delete = pre if delete_source else frozenset({hand_empty.lift([r])})
-    return LiftedOperator(
-        name, (r, item, *params), pre, frozenset({holding.lift([r, item]), *also_add}), delete
-    )
+    before = frozenset({hand_empty.lift([r]), *source})
+    delete = before if delete_source else frozenset({hand_empty.lift([r])})
+    add = frozenset({holding.lift([r, item]), *also_add})
+    return LiftedOperator(name, (r, item, *params), before | frozenset(also_need), add, delete)
 
 
 def place_operator(
@@ -81,4 +82,31 @@ def empty_hand_operator(
     )
 
 
-__all__: Sequence[str] = ["empty_hand_operator", "pick_operator", "place_operator"]
+def tool_operator(
+    name: str,
+    holding: Predicate,
+    tool: Variable,
+    params: Sequence[Variable],
+    pre: Sequence[LiftedAtom],
+    add: Sequence[LiftedAtom],
+    delete: Sequence[LiftedAtom] = (),
+) -> LiftedOperator:
+    """``name(?robot, tool, *params)``, ``?robot`` of ``holding``'s first type: holding ``tool``
+    and with ``pre`` true, the robot uses the tool to make ``add`` true and ``delete`` false; it
+    keeps holding the tool."""
+    r = Variable("?robot", holding.types[0])
+    return LiftedOperator(
+        name,
+        (r, tool, *params),
+        frozenset({holding.lift([r, tool]), *pre}),
+        frozenset(add),
+        frozenset(delete),
+    )
+
+
+__all__: Sequence[str] = [
+    "empty_hand_operator",
+    "pick_operator",
+    "place_operator",
+    "tool_operator",
+]

@@ -92,8 +92,9 @@ from kinder_gym.models.dynamic2d.kin_robot import (
     kin_config,
     wrap,
 )
+from kinder_gym.models.hand import empty_hand_operator
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.operators import GroundOperator, LiftedOperator
+from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 #: Fingertip height above the table top while pushing (metres).
@@ -443,27 +444,22 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     HandEmpty = Predicate("HandEmpty", (robot_t,), hand_empty)
 
     obstructions = sorted(env.obstructions, key=lambda o: o.name)  # type: ignore[attr-defined]
-    r = Variable("?robot", robot_t)
     t = Variable("?target", target_t)
     s = Variable("?surface", surface_t)
     b = Variable("?block", block_t)
     os_ = [Variable(f"?o{i}", block_t) for i in range(len(obstructions))]
-    clear = LiftedOperator(
-        "ClearSurface",
-        (r, b, s),
-        frozenset({HandEmpty.lift([r]), Obstructing.lift([b, s])}),
-        frozenset({NotObstructing.lift([b, s])}),
-        frozenset({Obstructing.lift([b, s])}),
+    in_the_way = [Obstructing.lift([b, s])]
+    clear = empty_hand_operator(
+        "ClearSurface", HandEmpty, [b, s], in_the_way, [NotObstructing.lift([b, s])], in_the_way
     )
-    push = LiftedOperator(
+    off_target = [NotOnTarget.lift([t, s])]
+    push = empty_hand_operator(
         "PushTarget",
-        (r, t, s, *os_),
-        frozenset(
-            {HandEmpty.lift([r]), NotOnTarget.lift([t, s])}
-            | {NotObstructing.lift([o, s]) for o in os_}
-        ),
-        frozenset({OnTarget.lift([t, s])}),
-        frozenset({NotOnTarget.lift([t, s])}),
+        HandEmpty,
+        [t, s, *os_],
+        [*off_target, *(NotObstructing.lift([o, s]) for o in os_)],
+        [OnTarget.lift([t, s])],
+        off_target,
     )
     target_obj = env.target_block  # type: ignore[attr-defined]
     surface_obj = env.target_surface  # type: ignore[attr-defined]

@@ -84,9 +84,8 @@ from kinder_gym.models.dynamic2d.kin_robot import (
     kin_config,
     wrap,
 )
-from kinder_gym.models.hand import pick_operator
+from kinder_gym.models.hand import pick_operator, tool_operator
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 UP = math.pi / 2
@@ -727,30 +726,14 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     HookAbove = Predicate("HookAbove", (hook_t, target_t), lambda s, o: hook_above(s, o[0], o[1]))
     TargetAtGoal = Predicate("TargetAtGoal", (target_t,), lambda s, o: env.goal_reached(s))
 
-    r = Variable("?robot", robot_t)
     h = Variable("?hook", hook_t)
     t = Variable("?target", target_t)
     grasp = pick_operator("GraspHook", HandEmpty, HoldingHook, h, [])
-    prehook = LiftedOperator(
-        "PreHook",
-        (r, h, t),
-        frozenset({HoldingHook.lift([r, h])}),
-        frozenset({HookAbove.lift([h, t])}),
-    )
-    down = LiftedOperator(
-        "HookDown",
-        (r, h, t),
-        frozenset({HoldingHook.lift([r, h]), HookAbove.lift([h, t])}),
-        frozenset({TargetAtGoal.lift([t])}),
-        frozenset({HookAbove.lift([h, t])}),
-    )
+    above, at_goal = [HookAbove.lift([h, t])], [TargetAtGoal.lift([t])]
+    prehook = tool_operator("PreHook", HoldingHook, h, [t], [], above)
+    down = tool_operator("HookDown", HoldingHook, h, [t], above, at_goal, above)
 
-    sweep = LiftedOperator(
-        "SweepTarget",
-        (r, h, t),
-        frozenset({HoldingHook.lift([r, h])}),
-        frozenset({TargetAtGoal.lift([t])}),
-    )
+    sweep = tool_operator("SweepTarget", HoldingHook, h, [t], [], at_goal)
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
         return frozenset({TargetAtGoal.ground([o]) for o in state.get_objects(target_t)})

@@ -74,9 +74,8 @@ from kinder_gym.models.dynamic2d.kin_robot import (
     hook_shape,
     wrap,
 )
-from kinder_gym.models.hand import pick_operator
+from kinder_gym.models.hand import pick_operator, tool_operator
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Controller, Skill, SkillFailure
 
 DOWN = -math.pi / 2
@@ -349,15 +348,9 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     HandEmpty = Predicate("HandEmpty", (robot_t,), lambda s, o: s.get(hook_obj, "held") < 0.5)
     Holding = Predicate("Holding", (robot_t, hook_t), holding)
     Poured = Predicate("Poured", (hook_t,), poured)
-    r, h = Variable("?robot", robot_t), Variable("?hook", hook_t)
+    h = Variable("?hook", hook_t)
     grasp = pick_operator("GraspScoop", HandEmpty, Holding, h, [])
-    pour = LiftedOperator(
-        "ScoopAndPour",
-        (r, h),
-        frozenset({Holding.lift([r, h])}),
-        frozenset({Poured.lift([h])}),
-        frozenset(),
-    )
+    pour = tool_operator("ScoopAndPour", Holding, h, [], [], [Poured.lift([h])])
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
         atoms: set[GroundAtom] = set()

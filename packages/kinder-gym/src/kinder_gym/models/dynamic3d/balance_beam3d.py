@@ -76,6 +76,7 @@ from kinder_gym.model import PlanningModel
 from kinder_gym.models import hand
 from kinder_gym.models.dynamic3d.tidybot import (
     CUBE_CLEARANCE,
+    GRASP_Z,
     PITCH,
     Dynamic3DContext,
     Dynamic3DController,
@@ -83,17 +84,20 @@ from kinder_gym.models.dynamic3d.tidybot import (
     SegmentSource,
     arm_joints,
     base_pose,
+    chassis_clear_of_box,
+    clear_of_points,
+    dynamic3d_model,
+    face_approach,
+    floor_points,
     grip_segment,
     hand_predicates,
     hand_state,
     line_segments,
     pick_operator,
     pinch_position,
-    segment_point_distance,
-    segment_rect_distance,
 )
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.skills import Skill, SkillFailure
+from kinder_gym.skills import SkillFailure
 
 GOAL_REGION = "beam_goal_region"
 SEESAW = "seesaw_1"
@@ -107,12 +111,8 @@ SPACING = 0.035
 SAMPLER_ANGLE = math.radians(2.0)
 #: Height (m) of the block's bottom above the beam top when the fingers open.
 DROP = 0.015
-#: Lowest height (m) of the pinch point when grasping a block on the floor.
-GRASP_MIN_Z = 0.02
 #: Height (m) the hand rises after releasing.
 RETREAT = 0.08
-#: Radius (m) of a circle around the 0.4 m square chassis, plus a margin.
-CHASSIS_RADIUS = 0.3
 #: Margin (m) kept between that circle and the seesaw's footprint.
 SEESAW_MARGIN = 0.05
 G = 9.81
@@ -152,8 +152,7 @@ class _Beam:
 
     def clear(self, a: FloatArray, b: FloatArray) -> bool:
         axes = np.stack([self.along2, self.across2], axis=1)
-        d = segment_rect_distance(a, b, self.centre, axes, self.half)
-        return d > CHASSIS_RADIUS + SEESAW_MARGIN
+        return chassis_clear_of_box(a, b, self.centre, axes, self.half, SEESAW_MARGIN)
 
 
 def _on_beam(ctx: BalanceContext, state: ObjectCentricState, skip: Object) -> list[Object]:
@@ -161,22 +160,12 @@ def _on_beam(ctx: BalanceContext, state: ObjectCentricState, skip: Object) -> li
     return [b for b in ctx.blocks if b != skip and on[f"on({b.name}, {GOAL_REGION})"]]
 
 
-def _floor_blocks(ctx: BalanceContext, state: ObjectCentricState, skip: Object) -> list[FloatArray]:
-    return [
-        np.array([state.get(b, "x"), state.get(b, "y")])
-        for b in ctx.blocks
-        if b != skip and state.get(b, "z") < 0.03
-    ]
-
-
 def _path_clear(
     ctx: BalanceContext, state: ObjectCentricState, skip: Object, a: FloatArray, b: FloatArray
 ) -> bool:
     if not _Beam(ctx, state).clear(a, b):
         return False
-    return all(
-        segment_point_distance(a, b, p) > CUBE_CLEARANCE for p in _floor_blocks(ctx, state, skip)
-    )
+    return clear_of_points(a, b, floor_points(state, ctx.blocks, skip, 0.03), CUBE_CLEARANCE)
 
 
 def _spot_ok(ctx: BalanceContext, state: ObjectCentricState, block: Object, u: float) -> bool:
@@ -222,20 +211,23 @@ class PickController(FloorPickController):
     grasp_back = 0.003
     lift_z = CARRY_Z
 
-    def wanted_heading(self, state: ObjectCentricState, obj: Object) -> float:
+    def approach(
+        self, state: ObjectCentricState, obj: Object
+    ) -> tuple[FloatArray, float, FloatArray]:
         ctx: BalanceContext = self.context
         c = np.array([state.get(obj, "x"), state.get(obj, "y")])
         towards = np.array([state.get(ctx.seesaw, "x"), state.get(ctx.seesaw, "y")]) - c
-        return math.atan2(towards[1], towards[0]) + (float(self.params[1]) - 0.5) * math.pi / 2
+        wanted = math.atan2(towards[1], towards[0]) + (float(self.params[1]) - 0.5) * math.pi / 2
+        return face_approach(state, obj, wanted)
 
     def route(self, state: ObjectCentricState, goal: FloatArray) -> list[FloatArray]:
         """Round the blocks on the floor and the seesaw (:func:`_route`)."""
         return _route(self.context, state, self.objects[1], goal)
 
     def grasp_z(self, state: ObjectCentricState, obj: Object) -> float:
-        """0.75 of the way up the block, at least :data:`GRASP_MIN_Z` (where the pitched
+        """0.75 of the way up the block, at least :data:`GRASP_Z` (where the pitched
         fingertips clear the floor)."""
-        return max(GRASP_MIN_Z, 0.75 * float(state.get(obj, "bb_z")))
+        return max(GRASP_Z, 0.75 * float(state.get(obj, "bb_z")))
 
 
 class PlaceController(Dynamic3DController):
@@ -333,23 +325,17 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         "Place", HandEmpty, Holding, b, [OnBeam.lift([b, s])], [Balanced.lift([s])], params=[s]
     )
 
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        del state
-        return frozenset(
-            {HandEmpty.ground([robot_obj]), Balanced.ground([seesaw])}
-            | {OnBeam.ground([b, seesaw]) for b in blocks}
-        )
-
-    return PlanningModel(
-        name="balance_beam3d",
-        env=env,
-        types=(ROBOT_TYPE, MOVABLE_TYPE, SEESAW_TYPE),
-        predicates=(HandEmpty, Holding, OnGround, OnBeam, Balanced),
-        skills=(Skill(pick, PickController, ctx), Skill(place, PlaceController, ctx)),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        objects_fn=lambda state: [robot_obj, seesaw, *blocks],
-        max_skill_horizon=400,
+    return dynamic3d_model(
+        "balance_beam3d",
+        ctx,
+        [HandEmpty, Holding, OnGround, OnBeam, Balanced],
+        [(pick, PickController), (place, PlaceController)],
+        {HandEmpty.ground([robot_obj]), Balanced.ground([seesaw])}
+        | {OnBeam.ground([b, seesaw]) for b in blocks},
+        abstraction,
+        [seesaw, *blocks],
+        400,
+        types=[ROBOT_TYPE, MOVABLE_TYPE, SEESAW_TYPE],
     )
 
 

@@ -76,6 +76,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -87,27 +88,26 @@ from kinder_garden3d.robot.description import forward_kinematics
 from kinder_gym.concepts import GroundAtom
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
-    CHASSIS_RADIUS,
-    GRIP_STEPS,
     MAX_DELTA,
-    PITCH,
-    READY,
+    Dynamic3DContext,
     Dynamic3DController,
+    FloorPickController,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
-    drive_reach_segment,
-    gripper_quat,
+    chassis_clear_of_box,
+    dynamic3d_model,
+    grip_segment,
     hand_state,
     line_segments,
-    nearest_ik,
     pick_place_domain,
     pinch_position,
-    segment_rect_distance,
+    placement_goal,
+    yaw_axes,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.skills import Skill, SkillFailure
+from kinder_gym.skills import SkillFailure
 
 ROD_PREFIX = "cuboid_"
 #: Height (m) of the pinch point above the centre of a rod lying on the floor when the fingers
@@ -128,11 +128,9 @@ FINGER_CLEARANCE = 0.015
 
 
 @dataclass(frozen=True)
-class CupboardContext:
+class CupboardContext(Dynamic3DContext):
     """What the ConstrainedCupboard3D controllers need besides the state."""
 
-    env: ObjectCentricEnv
-    robot: Object
     cupboards: tuple[Object, ...]
     rods: tuple[Object, ...]
     #: Goal region of each cupboard that has one.
@@ -181,17 +179,18 @@ def _clear_of_cupboards(
     cupboard."""
     for cupboard in ctx.cupboards:
         params = ctx.env.task.fixtures[cupboard.name].params  # type: ignore[attr-defined]
-        yaw = quat_yaw(np.asarray(state[cupboard][3:7]))
-        axes = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+        axes = yaw_axes(quat_yaw(np.asarray(state[cupboard][3:7])))
         centre = np.array([state.get(cupboard, "x"), state.get(cupboard, "y")])
         half = np.array([float(params["length"]) / 2, float(params["depth"]) / 2])
-        if segment_rect_distance(a, b, centre, axes, half) <= CHASSIS_RADIUS + 0.05:
+        if not chassis_clear_of_box(a, b, centre, axes, half, 0.05):
             return False
     return True
 
 
-class PickController(Dynamic3DController):
-    """Pick a rod off the floor near one of its ends. Objects: ``(robot, rod)``."""
+class PickController(FloorPickController):
+    """Pick a rod off the floor near one of its ends, the arm swinging to above the grasp point
+    while the base drives (the chassis path is checked; the hand passes 15 cm above the floor,
+    over the rods). Objects: ``(robot, rod)``."""
 
     params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
     params_doc = (
@@ -199,47 +198,37 @@ class PickController(Dynamic3DController):
         "else from the other end; close 0.01 + 0.02·grip metres in from that end; the base "
         "stops 0.50 + 0.10·dist metres short of the grasp point."
     )
-
-    hand_must_be = "open"
+    swing = True
+    grasp_back = 0.0
+    lift_z = CARRY_Z
+    lift_spacing = 0.04
 
     def _grip(self, state: ObjectCentricState, rod: Object) -> float:
         """Distance (m) of the grasp point from the rod's end."""
         return 0.01 + 0.02 * float(self.params[1])
 
-    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
-        ctx: CupboardContext = self.context
-        robot, rod = self.objects
-        centre, axis = _rod_axis(state, rod)
+    def standoff(self) -> float:
+        return 0.50 + 0.10 * float(self.params[2])
+
+    def approach(
+        self, state: ObjectCentricState, obj: Object
+    ) -> tuple[FloatArray, float, FloatArray]:
+        """Along the rod's axis, from the end ``params[0]`` picks."""
+        centre, axis = _rod_axis(state, obj)
         if float(self.params[0]) < 0.5:
             axis = -axis  # approach from the +axis end, facing -axis
         # `axis` points from the grasped end towards the rod's centre: the heading.
-        end = centre[:2] - axis * rod_length(state, rod) / 2
-        grip = self._grip(state, rod)
-        dist = 0.50 + 0.10 * float(self.params[2])
-        heading = math.atan2(axis[1], axis[0])
-        point = end + grip * axis
-        goal = np.array([*(point - dist * axis), heading])
-        b0 = base_pose(state, robot)
-        if not _clear_of_cupboards(ctx, state, b0[:2], goal[:2]):
+        end = centre[:2] - axis * rod_length(state, obj) / 2
+        return end + self._grip(state, obj) * axis, math.atan2(axis[1], axis[0]), axis
+
+    def route(self, state: ObjectCentricState, goal: FloatArray) -> list[FloatArray]:
+        """Straight, clear of every cupboard."""
+        if not _clear_of_cupboards(self.context, state, base_pose(state, self.robot)[:2], goal[:2]):
             raise SkillFailure("Pick: the straight base path passes a cupboard")
-        quat = gripper_quat(heading, PITCH)
-        grasp = np.array([*point, state.get(rod, "bb_z") / 2 + GRASP_ABOVE_CENTRE])
-        above = np.array([*(point - 0.01 * axis), 0.15])
+        return [goal]
 
-        def descend(s: ObjectCentricState) -> list[Segment]:
-            return line_segments(s, robot, grasp, heading, PITCH, 0.0)
-
-        def lift(s: ObjectCentricState) -> list[Segment]:
-            here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
-            target = np.array([here[0], here[1], CARRY_Z])
-            return line_segments(s, robot, target, heading, PITCH, 1.0, spacing=0.04)
-
-        close = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        # The arm swings to above the grasp point while the base drives (the chassis path is
-        # checked; the hand passes 15 cm above the floor, over the rods).
-        ready = nearest_ik(above, quat, goal, arm_joints(state, robot), READY)
-        drive = drive_reach_segment(state, robot, goal, ready, 0.0, 0.01)
-        return [drive, descend, close, lift]
+    def grasp_z(self, state: ObjectCentricState, obj: Object) -> float:
+        return float(state.get(obj, "bb_z") / 2 + GRASP_ABOVE_CENTRE)
 
 
 def _rod_in_base(state: ObjectCentricState, robot: Object, rod: Object) -> tuple[FloatArray, float]:
@@ -367,7 +356,7 @@ class PlaceController(Dynamic3DController):
             return [
                 Segment(base=tuple(inside), arm=tuple(q), gripper=1.0, arm_tol=0.05,
                         base_tol=0.005, max_steps=60, base_speed=self.carry_speed),
-                Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS),
+                grip_segment(0.0),
                 Segment(base=tuple(back), arm=tuple(q), gripper=0.0, arm_tol=0.05,
                         base_tol=0.02, max_steps=60),
             ]  # fmt: skip
@@ -380,14 +369,13 @@ class PlaceController(Dynamic3DController):
 
 def _goal_pairs(env: ObjectCentricEnv) -> list[tuple[str, str, str]]:
     """(rod, region, cupboard) names of every goal atom of the task."""
-    goal_expr = env.task.goal  # type: ignore[attr-defined]
     specs = env.task.regions  # type: ignore[attr-defined]
-    pairs = []
-    for atom in goal_expr[1] if goal_expr[0] == "and" else [goal_expr]:
-        if atom[0] != "on" or not str(atom[1]).startswith(ROD_PREFIX):
-            raise ValueError(f"ConstrainedCupboard3D model: unsupported goal atom {atom!r}")
-        pairs.append((str(atom[1]), str(atom[2]), str(specs[atom[2]].target)))
-    return pairs
+
+    def rod_on(atom: tuple[Any, ...]) -> bool:
+        return bool(atom[0] == "on" and str(atom[1]).startswith(ROD_PREFIX))
+
+    placed = placement_goal(env, "ConstrainedCupboard3D", rod_on)
+    return [(rod, region, str(specs[region].target)) for rod, region in placed]
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
@@ -424,24 +412,17 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(OnGround.ground([r]))
         return frozenset(atoms)
 
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        del state
-        return frozenset(
-            {HandEmpty.ground([robot_obj])}
-            | {OnShelf.ground([rod, cup]) for rod, cup in goal_of.items()}
-        )
-
-    goal_cupboards = sorted(regions)
-    return PlanningModel(
-        name="constrained_cupboard3d",
-        env=env,
-        types=(ROBOT_TYPE, MOVABLE_TYPE, FIXTURE_TYPE),
-        predicates=predicates,
-        skills=(Skill(pick, PickController, ctx), Skill(place, PlaceController, ctx)),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        objects_fn=lambda state: [robot_obj, *goal_cupboards, *rods],
-        max_skill_horizon=400,
+    return dynamic3d_model(
+        "constrained_cupboard3d",
+        ctx,
+        predicates,
+        [(pick, PickController), (place, PlaceController)],
+        {HandEmpty.ground([robot_obj])}
+        | {OnShelf.ground([rod, cup]) for rod, cup in goal_of.items()},
+        abstraction,
+        [*sorted(regions), *rods],
+        400,
+        types=[ROBOT_TYPE, MOVABLE_TYPE, FIXTURE_TYPE],
     )
 
 

@@ -51,18 +51,19 @@ from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.dynamic3d.object_types import ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models import hand
 from kinder_gym.models.dynamic3d.tidybot import (
     CLOSED,
     HOME,
     MAX_DELTA,
+    Dynamic3DContext,
     Dynamic3DController,
     Segment,
     SegmentSource,
-    arm_joints,
     base_pose,
+    dynamic3d_model,
     hand_predicates,
 )
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill
 
 GOAL_REGION = "ground_goal_region"
@@ -103,9 +104,7 @@ class MoveToGoalController(Dynamic3DController):
         left = np.array([-line[1], line[0]]) / max(length, 1e-9)
         via = b0[:2] + line / 2 + MAX_DETOUR * (2 * w - 1) * left
         yaw = float(b0[2])
-        plan: list[SegmentSource] = []
-        if np.abs(arm_joints(state, self.robot) - HOME).max() > 0.05:
-            plan.append(Segment(arm=tuple(HOME), arm_tol=0.05, max_steps=80))
+        plan = self.retract_arm(state)
         start = b0[:2]
         for point, tol in ((via, 0.05), (target, 0.02)):
             steps = math.ceil(float(np.linalg.norm(point - start)) / MAX_DELTA) + 30
@@ -140,29 +139,18 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         return frozenset(atoms)
 
     r = Variable("?robot", ROBOT_TYPE)
-    move = LiftedOperator(
-        "MoveToGoal",
-        (r,),
-        frozenset({HandEmpty.lift([r])}),
-        frozenset({AtGoal.lift([r])}),
-        frozenset(),
-    )
-
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        del state
-        return frozenset({AtGoal.ground([robot_obj])})
-
-    return PlanningModel(
-        name="dynamo3d",
-        env=env,
-        types=(ROBOT_TYPE,),
-        predicates=(AtGoal, HandEmpty),
-        skills=(Skill(move, MoveToGoalController, env),),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        objects_fn=lambda state: [robot_obj],
-        max_skill_horizon=200,
-        max_episode_steps=env.spec.max_episode_steps if env.spec is not None else None,
+    move = hand.empty_hand_operator("MoveToGoal", HandEmpty, [], [], [AtGoal.lift([r])])
+    return dynamic3d_model(
+        "dynamo3d",
+        Dynamic3DContext(env, robot_obj),
+        [AtGoal, HandEmpty],
+        [Skill(move, MoveToGoalController, env)],
+        [AtGoal.ground([robot_obj])],
+        abstraction,
+        [],
+        200,
+        types=[ROBOT_TYPE],
+        step_limit=True,
     )
 
 

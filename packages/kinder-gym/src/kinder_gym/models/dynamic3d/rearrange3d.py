@@ -57,29 +57,25 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
+from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
-    DOWN,
-    GRIP_STEPS,
-    LOADED_TOL,
-    Segment,
+    Dynamic3DContext,
     SegmentSource,
     TopDownController,
-    arm_joints,
     base_pose,
+    dynamic3d_model,
     grasp_yaws,
     hand_predicates,
     hand_state,
-    line_segments,
     pick_operator,
-    pinch_position,
     place_operator,
-    top_down_yaw,
+    placement_goal,
+    region_spot,
 )
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.skills import Skill, SkillFailure
+from kinder_gym.skills import SkillFailure
 
 BOWL = "bowl_0"
 #: Height (m) of the island top (the task files' ``shelf:2`` frame).
@@ -95,11 +91,9 @@ HOLD_RADIUS = 0.08
 
 
 @dataclass(frozen=True)
-class RearrangeContext:
+class RearrangeContext(Dynamic3DContext):
     """What the Rearrange3D controllers need besides the state."""
 
-    env: ObjectCentricEnv
-    robot: Object
     bowl: Object
     movables: tuple[Object, ...]
     #: Goal region of each goal object, by object name.
@@ -118,20 +112,10 @@ def _spot(
     params: Sequence[float] | FloatArray,
 ) -> FloatArray:
     """The (x, y) spot of the object's centre selected by Place's parameters."""
-    env = ctx.env
     region = ctx.regions[obj.name]
-    boxes = env.task.regions[region].boxes  # type: ignore[attr-defined]
-    k = min(int(float(params[0]) * len(boxes)), len(boxes) - 1)
-    box = boxes[k]
-    frame = env.regions.transform(state, region)  # type: ignore[attr-defined]
-    local = np.array(
-        [
-            box[0] + float(params[1]) * (box[3] - box[0]),
-            box[1] + float(params[2]) * (box[4] - box[1]),
-            0.0,
-        ]
-    )
-    return np.asarray((frame[:3, :3] @ local + frame[:3, 3])[:2], dtype=np.float64)
+    n = len(ctx.env.task.regions[region].boxes)  # type: ignore[attr-defined]
+    k = min(int(float(params[0]) * n), n - 1)
+    return region_spot(ctx.env, state, region, k, float(params[1]), float(params[2]))
 
 
 def _spot_free(
@@ -169,22 +153,7 @@ class PickController(TopDownController):
         points = [np.array([*c[:2], self.travel_z]), np.array([*c[:2], grasp_z])]
         goal, heading = self.base_for(state, points, grasp_yaws(state, obj, float(base[2])))
 
-        def descend(s: ObjectCentricState) -> list[Segment]:
-            return line_segments(s, robot, np.array([*c[:2], grasp_z]), heading, DOWN, 0.0)
-
-        def lift(s: ObjectCentricState) -> list[Segment]:
-            p = pinch_position(base_pose(s, robot), arm_joints(s, robot))
-            target = np.array([p[0], p[1], self.travel_z])
-            return line_segments(
-                s, robot, target, heading, DOWN, 1.0, spacing=0.05, final_tol=LOADED_TOL
-            )
-
-        close = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-
-        def above(s: ObjectCentricState) -> list[Segment]:
-            return [self.to_travel(s, c[:2], heading)]
-
-        return [*self.shift_base(state, goal), above, descend, close, lift]
+        return [*self.shift_base(state, goal), *self.grasp_from_above(c[:2], grasp_z, heading, 0.0)]
 
 
 class PlaceController(TopDownController):
@@ -211,49 +180,25 @@ class PlaceController(TopDownController):
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: RearrangeContext = self.context
-        robot, obj = self.objects
+        obj = self.objects[1]
         self.grip = 1.0
         spot = _spot(ctx, state, obj, self.params)
         if not _spot_free(ctx, state, obj, spot):
             raise SkillFailure("Place: the spot overlaps the bowl or another object")
-        base = base_pose(state, robot)
-        arm = arm_joints(state, robot)
-        pinch = pinch_position(base, arm)
-        yaw = top_down_yaw(base, arm)
-        c = np.array([state.get(obj, f) for f in ("x", "y", "z")])
-        offset = c - pinch  # the held object relative to the pinch point
-        bottom = float(c[2]) - 0.5 * state.get(obj, "bb_z")
+        pinch, yaw, offset, bottom = self.held(state, obj)
         release_z = float(pinch[2]) - (bottom - TABLE_Z - RELEASE_GAP)
         target_xy = spot - offset[:2]
         points = [np.array([*target_xy, self.travel_z]), np.array([*target_xy, release_z])]
         goal, _ = self.base_for(state, points, [yaw])
 
-        def carry(s: ObjectCentricState) -> list[Segment]:
-            goal = np.array([*target_xy, self.travel_z])
-            return line_segments(s, robot, goal, yaw, DOWN, 1.0, spacing=0.05, final_tol=LOADED_TOL)
-
-        def lower(s: ObjectCentricState) -> list[Segment]:
-            goal = np.array([*target_xy, release_z])
-            return line_segments(s, robot, goal, yaw, DOWN, 1.0, final_tol=LOADED_TOL)
-
-        def rise(s: ObjectCentricState) -> list[Segment]:
-            goal = np.array([*target_xy, self.travel_z])
-            return line_segments(s, robot, goal, yaw, DOWN, 0.0, spacing=0.05, final_tol=LOADED_TOL)
-
-        release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        return [*self.shift_base(state, goal), carry, lower, release, rise]
+        return [*self.shift_base(state, goal), *self.release_at(target_xy, release_z, yaw, 0.0)]
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The Rearrange3D planning model (any language variant, o1 and o2)."""
     objects: dict[str, Object] = env.objects  # type: ignore[attr-defined]
     robot_obj = objects["robot"]
-    goal_expr = env.task.goal  # type: ignore[attr-defined]
-    regions: dict[str, str] = {}
-    for atom in goal_expr[1] if goal_expr[0] == "and" else [goal_expr]:
-        if atom[0] not in ("on", "in"):
-            raise ValueError(f"Rearrange3D model: unsupported goal atom {atom!r}")
-        regions[atom[1]] = atom[2]
+    regions = dict(placement_goal(env, "Rearrange3D", lambda atom: atom[0] in ("on", "in")))
     movables = tuple(sorted(o for n, o in objects.items() if o.type == MOVABLE_TYPE and n != BOWL))
     goal_objs = tuple(o for o in movables if o.name in regions)
     ctx = RearrangeContext(env, robot_obj, objects[BOWL], movables, regions)
@@ -280,20 +225,15 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     pick = pick_operator(o, Loose)
     place = place_operator(o, Placed)
 
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        del state
-        return frozenset({HandEmpty.ground([robot_obj])} | {Placed.ground([g]) for g in goal_objs})
-
-    return PlanningModel(
-        name="rearrange3d",
-        env=env,
-        types=(ROBOT_TYPE, MOVABLE_TYPE),
-        predicates=(HandEmpty, Holding, Loose, Placed),
-        skills=(Skill(pick, PickController, ctx), Skill(place, PlaceController, ctx)),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        objects_fn=lambda state: [robot_obj, *goal_objs],
-        max_skill_horizon=300,
+    return dynamic3d_model(
+        "rearrange3d",
+        ctx,
+        [HandEmpty, Holding, Loose, Placed],
+        [(pick, PickController), (place, PlaceController)],
+        {HandEmpty.ground([robot_obj])} | {Placed.ground([g]) for g in goal_objs},
+        abstraction,
+        goal_objs,
+        300,
     )
 
 

@@ -132,20 +132,22 @@ from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.dynamic3d.geometry import quat_yaw
-from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
+from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
     CLOSED,
-    GRIP_STEPS,
     HOME,
     MAX_DELTA,
     READY,
+    Dynamic3DContext,
     Dynamic3DController,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
+    dynamic3d_model,
+    grip_segment,
     gripper_quat,
     hand_predicates,
     ik_near,
@@ -155,7 +157,6 @@ from kinder_gym.models.dynamic3d.tidybot import (
     place_operator,
 )
 from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.skills import Skill
 
 TARGET_REGION = "target_bin_region"
 #: Handle centre in the scoop's body frame (the middle of the cup's back bottom edge, as
@@ -178,11 +179,9 @@ SCOOP_REST_Z = 0.46
 
 
 @dataclass(frozen=True)
-class ScoopContext:
+class ScoopContext(Dynamic3DContext):
     """What the ScoopPour3D controllers need besides the state."""
 
-    env: ObjectCentricEnv
-    robot: Object
     scoop: Object
     cubes: tuple[Object, ...]
     rest_z: float
@@ -266,12 +265,8 @@ class GraspScoopController(Dynamic3DController):
                 )
             )
 
-        plan: list[SegmentSource] = []
-        if np.abs(arm_joints(state, robot) - HOME).max() > 0.05:
-            plan.append(Segment(arm=tuple(float(v) for v in HOME), arm_tol=0.05, max_steps=80))
-        grip = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        plan += [self.drive(goal, HOME, 0.0, 0.01), reach_above, descend, grip, lift]
-        return plan
+        drive = self.drive(goal, HOME, 0.0, 0.01)
+        return [*self.retract_arm(state), drive, reach_above, descend, grip_segment(1.0), lift]
 
 
 def scoop_context(env: ObjectCentricEnv) -> ScoopContext:
@@ -401,8 +396,7 @@ class PickCubeController(Dynamic3DController):
         b0 = base_pose(state, robot)
         if float(np.abs(b0 - goal).max()) > 0.03:
             plan.append(self.drive(goal, arm_joints(state, robot), 0.0, 0.02))
-        grip = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        return [*plan, reach_above, descend, grip, lift]
+        return [*plan, reach_above, descend, grip_segment(1.0), lift]
 
 
 class PlaceCubeController(Dynamic3DController):
@@ -438,7 +432,7 @@ class PlaceCubeController(Dynamic3DController):
         drive = self.drive(goal, arm_joints(state, robot), 1.0, 0.03)
         steps = math.ceil(drive.max_steps * MAX_DELTA / CUBE_CARRY_SPEED[0])
         drive = replace(drive, base_speed=CUBE_CARRY_SPEED, max_steps=steps)
-        release = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
+        release = grip_segment(0.0)
         return [drive, carry, release]
 
 
@@ -468,21 +462,16 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     pick = pick_operator(c, InSource)
     place = place_operator(c, InTarget)
 
-    def goal(s: ObjectCentricState) -> frozenset[GroundAtom]:
-        del s
-        return frozenset(InTarget.ground([cube]) for cube in ctx.cubes)
-
-    return PlanningModel(
-        name="scoop_pour3d",
-        env=env,
-        types=(ROBOT_TYPE, MOVABLE_TYPE),
-        predicates=(HandEmpty, Holding, InSource, InTarget),
-        skills=(Skill(pick, PickCubeController, ctx), Skill(place, PlaceCubeController, ctx)),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        objects_fn=lambda s: [robot, *ctx.cubes],
-        max_skill_horizon=200,
-        max_episode_steps=env.spec.max_episode_steps if env.spec is not None else None,
+    return dynamic3d_model(
+        "scoop_pour3d",
+        ctx,
+        [HandEmpty, Holding, InSource, InTarget],
+        [(pick, PickCubeController), (place, PlaceCubeController)],
+        (InTarget.ground([cube]) for cube in ctx.cubes),
+        abstraction,
+        ctx.cubes,
+        200,
+        step_limit=True,
         monotone_predicates=frozenset({"InTarget"}),
     )
 

@@ -52,10 +52,10 @@ Version notes:
   among eight evenly spaced spots and the hand opens only to 4.7 cm on the shelf (the spacing
   check drops from 6 to 5 cm). Measured in ``benchmarks/results/bilevel_planning.md``.
 * Contact update (the env's elliptic friction cones and ``impratio`` 10): a held cube no longer
-  creeps out of the pads (0.9 → 0.05 mm/s, ``benchmarks/probes/grasp_slip.py``). Three settings chosen
-  against that slip were simplified: the fingers close 2 cm above the floor (was 1.6 cm, deeper
-  into the pads), the cube is carried 4 cm above the shelf (was 7 cm) and the base drives at the
-  env's full speed while carrying (was 0.06 m and 0.06 rad per action). Measured without them
+  creeps out of the pads (0.9 → 0.05 mm/s, ``benchmarks/probes/grasp_slip.py``). Three settings
+  chosen against that slip were simplified: the fingers close 2 cm above the floor (was 1.6 cm,
+  deeper into the pads), the cube is carried 4 cm above the shelf (was 7 cm) and the base drives
+  at the env's full speed while carrying (was 0.06 m and 0.06 rad per action). Measured without them
   (``benchmarks/results/bilevel_planning.md``): Shelf3D-o1 BP 1.00 (2 seeds × 10 episodes) in
   6 % fewer steps; on Shelf3D-o4 every Pick and Place of all four cubes reached its prediction
   (6 seeds, 48 of 49 sampled tries) and BP solved 9 of 10 (the failure ran out of the 60 s
@@ -76,35 +76,34 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.dynamic3d.geometry import quat_yaw
 from kinder_garden3d.dynamic3d.object_types import FIXTURE_TYPE, MOVABLE_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d.tidybot import (
-    CHASSIS_RADIUS,
     CUBE_CLEARANCE,
-    GRASP_Z,
-    GRIP_STEPS,
     PITCH,
-    READY,
     RELEASE,
+    Dynamic3DContext,
     Dynamic3DController,
+    FloorPickController,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
-    drive_reach_segment,
-    gripper_quat,
+    chassis_clear_of_box,
+    clear_of_points,
+    drive_segment,
+    dynamic3d_model,
+    face_approach,
+    floor_points,
+    grip_segment,
     hand_state,
     line_segments,
-    nearest_ik,
     pick_place_domain,
     pinch_position,
-    segment_point_distance,
-    segment_rect_distance,
 )
-from kinder_gym.motion_planning import FloatArray, wrap_angle
-from kinder_gym.skills import Skill, SkillFailure
+from kinder_gym.motion_planning import FloatArray
+from kinder_gym.skills import SkillFailure
 
 GOAL_REGION = "cupboard_1_goal_region"
 #: Height (m) of the pinch point above the shelf top while carrying and placing.
@@ -131,11 +130,9 @@ DETOURS = (0.2, -0.2, 0.4, -0.4)
 
 
 @dataclass(frozen=True)
-class ShelfContext:
+class ShelfContext(Dynamic3DContext):
     """What the Shelf3D controllers need besides the state."""
 
-    env: ObjectCentricEnv
-    robot: Object
     cupboard: Object
     cubes: tuple[Object, ...]
     #: Goal region of each cube, by name, where it is not :data:`GOAL_REGION` (another
@@ -163,18 +160,7 @@ class _ShelfGeometry:
         self.half = np.array([self.length / 2, self.depth / 2])
 
     def clear_of_cupboard(self, a: FloatArray, b: FloatArray, margin: float) -> bool:
-        d = segment_rect_distance(a, b, self.centre, self.axes, self.half)
-        return d > CHASSIS_RADIUS + margin
-
-
-def _floor_cubes(
-    state: ObjectCentricState, cubes: Sequence[Object], skip: Object | None
-) -> list[FloatArray]:
-    return [
-        np.array([state.get(c, "x"), state.get(c, "y")])
-        for c in cubes
-        if c != skip and state.get(c, "z") < 0.05
-    ]
+        return chassis_clear_of_box(a, b, self.centre, self.axes, self.half, margin)
 
 
 def _path_clear(
@@ -182,7 +168,7 @@ def _path_clear(
 ) -> bool:
     if not geometry.clear_of_cupboard(a, b, 0.05):
         return False
-    return all(segment_point_distance(a, b, p) > CUBE_CLEARANCE for p in obstacles)
+    return clear_of_points(a, b, obstacles, CUBE_CLEARANCE)
 
 
 def _route(
@@ -227,62 +213,43 @@ def _spot_free(
     return True
 
 
-class PickController(Dynamic3DController):
-    """Pick a cube off the floor. Objects: ``(robot, cube)``."""
+class PickController(FloorPickController):
+    """Pick a cube off the floor, the arm swinging to above it while the base drives; the lift
+    goes straight up until the cube is clear of the floor (Place raises it to the carry height
+    while the base drives). Objects: ``(robot, cube)``."""
 
     #: Whether a blocked straight base path may be replaced by a detour (:func:`_route`).
     detours = False
 
-    params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
     params_doc = (
         "(dist, angle): the base stops 0.50 + 0.10·dist metres short of the cube, approaching "
         "along the cube face nearest to the heading (angle − 0.5)·π/2 radians off the one that "
         "faces the cupboard's opening."
     )
+    swing = True
+    lift_z = LIFT_CLEAR
+    lift_spacing = 0.05
+    via_tol = 0.05
 
-    hand_must_be = "open"
+    def approach(
+        self, state: ObjectCentricState, obj: Object
+    ) -> tuple[FloatArray, float, FloatArray]:
+        """Roughly facing the cupboard: the carry to it then needs little turning."""
+        ctx: ShelfContext = self.context
+        front = _ShelfGeometry(ctx, state, ctx.region(obj)).front
+        wanted = math.atan2(-front[1], -front[0]) + (float(self.params[1]) - 0.5) * math.pi / 2
+        return face_approach(state, obj, wanted)
 
-    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+    def route(self, state: ObjectCentricState, goal: FloatArray) -> list[FloatArray]:
+        """Straight, or (:attr:`detours`) through a detour's waypoint (:func:`_route`)."""
         ctx: ShelfContext = self.context
         robot, cube = self.objects
         geometry = _ShelfGeometry(ctx, state, ctx.region(cube))
-        dist = 0.50 + 0.10 * float(self.params[0])
-        c = np.array([state.get(cube, "x"), state.get(cube, "y")])
-        b0 = base_pose(state, robot)
-        # Approach roughly facing the cupboard: the carry to it then needs little turning.
-        facing = math.atan2(-geometry.front[1], -geometry.front[0])
-        wanted = facing + (float(self.params[1]) - 0.5) * math.pi / 2
-        cube_yaw = quat_yaw(np.asarray(state[cube][3:7]))
-        k = round((wanted - cube_yaw) / (math.pi / 2))
-        heading = wrap_angle(cube_yaw + k * math.pi / 2)
-        direction = np.array([math.cos(heading), math.sin(heading)])
-        goal = np.array([*(c - dist * direction), heading])
-        obstacles = _floor_cubes(state, ctx.cubes, cube)
-        route = _route(geometry, b0[:2], goal[:2], obstacles, self.detours)
+        obstacles = floor_points(state, ctx.cubes, cube, 0.05)
+        route = _route(geometry, base_pose(state, robot)[:2], goal[:2], obstacles, self.detours)
         if route is None:
             raise SkillFailure("Pick: the straight base path is blocked")
-        quat = gripper_quat(heading, PITCH)
-        grasp = np.array([*(c - 0.005 * direction), GRASP_Z])
-        above = np.array([*(c - 0.01 * direction), 0.15])
-
-        def descend(s: ObjectCentricState) -> list[Segment]:
-            return line_segments(s, robot, grasp, heading, PITCH, 0.0)
-
-        def lift(s: ObjectCentricState) -> list[Segment]:
-            # Straight up until the cube is clear of the floor; Place raises it to the carry
-            # height while the base drives.
-            here = pinch_position(base_pose(s, robot), arm_joints(s, robot))
-            target = np.array([here[0], here[1], LIFT_CLEAR])
-            return line_segments(s, robot, target, heading, PITCH, 1.0, spacing=0.05)
-
-        close = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        # The arm swings to above the cube while the base drives (it passes 15 cm above the
-        # floor; the chassis path is checked).
-        ready = nearest_ik(above, quat, goal, arm_joints(state, robot), READY)
-        legs = [drive_reach_segment(state, robot, np.array([*via, heading]), ready, 0.0, 0.05)
-                for via in route[:-1]]  # fmt: skip
-        drive = drive_reach_segment(state, robot, goal, ready, 0.0, 0.01)
-        return [*legs, drive, descend, close, lift]
+        return [*(np.array([*via, goal[2]]) for via in route[:-1]), goal]
 
 
 class PlaceController(Dynamic3DController):
@@ -359,20 +326,22 @@ class PlaceController(Dynamic3DController):
         outside = spot + (geometry.depth / 2 + PRE_PLACE - inward) * geometry.front
         pre = np.array([*(outside - offset), heading])
         inside = np.array([*(spot - offset), heading])
-        obstacles = _floor_cubes(state, ctx.cubes, cube)
+        obstacles = floor_points(state, ctx.cubes, cube, 0.05)
         route = _route(geometry, b0[:2], pre[:2], obstacles, self.detours)
         if route is None:
             raise SkillFailure("Place: the straight base path to the cupboard is blocked")
         legs = [
-            replace(drive_reach_segment(state, robot, np.array([*via, heading]), arm, 1.0, 0.05),
-                    base_speed=CARRY_SPEED)
+            replace(
+                drive_segment(state, robot, np.array([*via, heading]), arm, 1.0, 0.05, reach=True),
+                base_speed=CARRY_SPEED,
+            )
             for via in route[:-1]
         ]  # fmt: skip
         # Opened only part way on the shelf, so that the pads stay clear of the neighbours.
-        release = Segment(gripper=RELEASE, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
+        release = grip_segment(RELEASE)
         return [
             *legs,
-            replace(drive_reach_segment(state, robot, pre, arm, 1.0, 0.01),
+            replace(drive_segment(state, robot, pre, arm, 1.0, 0.01, reach=True),
                     base_speed=CARRY_SPEED),
             Segment(
                 base=tuple(inside),
@@ -385,7 +354,7 @@ class PlaceController(Dynamic3DController):
             release,
             Segment(base=tuple(pre), arm=tuple(arm), gripper=RELEASE, arm_tol=0.05, base_tol=0.02,
                     max_steps=40),
-            Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=OPEN_STEPS),
+            grip_segment(0.0, OPEN_STEPS),
         ]  # fmt: skip
 
 
@@ -417,22 +386,16 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(OnShelf.ground([c, cupboard]))
         return frozenset(atoms)
 
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        del state
-        return frozenset(
-            {HandEmpty.ground([robot_obj])} | {OnShelf.ground([c, cupboard]) for c in cubes}
-        )
-
-    return PlanningModel(
-        name="shelf3d",
-        env=env,
-        types=(ROBOT_TYPE, MOVABLE_TYPE, FIXTURE_TYPE),
-        predicates=predicates,
-        skills=(Skill(pick, PickController, ctx), Skill(place, PlaceController, ctx)),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        objects_fn=lambda state: [robot_obj, cupboard, *cubes],
-        max_skill_horizon=400,
+    return dynamic3d_model(
+        "shelf3d",
+        ctx,
+        predicates,
+        [(pick, PickController), (place, PlaceController)],
+        {HandEmpty.ground([robot_obj])} | {OnShelf.ground([c, cupboard]) for c in cubes},
+        abstraction,
+        [cupboard, *cubes],
+        400,
+        types=[ROBOT_TYPE, MOVABLE_TYPE, FIXTURE_TYPE],
     )
 
 

@@ -78,33 +78,31 @@ from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.dynamic3d.geometry import quat_yaw
-from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
+from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.dynamic3d import sort_cupboard3d
 from kinder_gym.models.dynamic3d.tidybot import (
-    DOWN,
-    GRIP_STEPS,
     HOME,
-    LOADED_TOL,
     RELEASE,
-    Segment,
+    Dynamic3DContext,
     SegmentSource,
     TopDownController,
     arm_joints,
     base_pose,
     drive_segment,
+    dynamic3d_model,
     grasp_yaws,
+    grip_segment,
     hand_predicates,
     hand_state,
-    line_segments,
     pick_operator,
-    pinch_position,
     place_operator,
-    top_down_yaw,
+    placement_goal,
+    region_spot,
 )
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.skills import Skill, SkillFailure
+from kinder_gym.skills import SkillFailure
 
 TABLE = "table_1"
 #: Gap (m) between the chassis (0.4 m square) and the table's long side at the work pose.
@@ -139,11 +137,9 @@ HOLD_RADIUS = 0.04
 
 
 @dataclass(frozen=True)
-class SortContext:
+class SortContext(Dynamic3DContext):
     """What the SortClutteredBlocks3D controllers need besides the state."""
 
-    env: ObjectCentricEnv
-    robot: Object
     table: Object
     #: Goal region of each cube, by cube name.
     regions: dict[str, str]
@@ -290,19 +286,7 @@ class PickController(_SortController):
         c[:2] += shift * np.array([math.cos(yaw), math.sin(yaw)])
         grasp_z = _bottom(state, cube) + PAD_REACH + PAD_CLEARANCE
 
-        def descend(s: ObjectCentricState) -> list[Segment]:
-            target = np.array([*c[:2], grasp_z])
-            return line_segments(s, robot, target, yaw, DOWN, pre_grasp, spacing=0.04)
-
-        def lift(s: ObjectCentricState) -> list[Segment]:
-            p = pinch_position(base_pose(s, robot), arm_joints(s, robot))
-            target = np.array([p[0], p[1], self.travel_z])
-            return line_segments(
-                s, robot, target, yaw, DOWN, 1.0, spacing=0.05, final_tol=LOADED_TOL
-            )
-
-        close = Segment(gripper=1.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        plan += [lambda s: [self.to_travel(s, c[:2], yaw)], descend, close, lift]
+        plan += self.grasp_from_above(c[:2], grasp_z, yaw, pre_grasp, spacing=0.04)
         return plan
 
 
@@ -319,50 +303,24 @@ class DropController(_SortController):
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         ctx: SortContext = self.context
-        robot, cube = self.objects
+        cube = self.objects[1]
         table = _Table(ctx, state)
         self.travel_z = table.top + TRAVEL_ABOVE
         self.grip = 1.0
         region = ctx.regions[cube.name]
-        box = ctx.env.task.regions[region].boxes[0]  # type: ignore[attr-defined]
-        frame = ctx.env.regions.transform(state, region)  # type: ignore[attr-defined]
-        lo = np.asarray(box[:2]) + SPOT_MARGIN
-        hi = np.asarray(box[3:5]) - SPOT_MARGIN
-        local = np.array([*(lo + np.asarray(self.params[:2]) * (hi - lo)), 0.0])
-        spot = (frame[:3, :3] @ local + frame[:3, 3])[:2]
+        u, v = (float(p) for p in self.params[:2])
+        spot = region_spot(ctx.env, state, region, 0, u, v, SPOT_MARGIN)
         container = ctx.containers[region]
         # The container's lowest point (its frame may be its bottom face), and a 5 mm floor.
         lowest = state.get(container, "z") - ctx.env.scene.objects[container.name].bottom  # type: ignore[attr-defined]
         floor = lowest + 0.005
         rim = lowest + state.get(container, "bb_z")
-        base = base_pose(state, robot)
-        arm = arm_joints(state, robot)
-        pinch = pinch_position(base, arm)
-        yaw = top_down_yaw(base, arm)
-        c = np.array([state.get(cube, f) for f in ("x", "y", "z")])
-        offset = c - pinch
-        bottom = float(c[2]) - 0.5 * state.get(cube, "bb_z")
+        pinch, yaw, offset, bottom = self.held(state, cube)
         release_bottom = max(floor + DROP_GAP, rim - RIM_DEPTH)
         release_z = float(pinch[2]) - (bottom - release_bottom)
         target_xy = spot - offset[:2]
 
-        def carry(s: ObjectCentricState) -> list[Segment]:
-            goal = np.array([*target_xy, self.travel_z])
-            return line_segments(s, robot, goal, yaw, DOWN, 1.0, spacing=0.05, final_tol=LOADED_TOL)
-
-        def lower(s: ObjectCentricState) -> list[Segment]:
-            goal = np.array([*target_xy, release_z])
-            return line_segments(s, robot, goal, yaw, DOWN, 1.0, final_tol=LOADED_TOL)
-
-        def rise(s: ObjectCentricState) -> list[Segment]:
-            goal = np.array([*target_xy, self.travel_z])
-            return line_segments(
-                s, robot, goal, yaw, DOWN, RELEASE, spacing=0.05, final_tol=LOADED_TOL
-            )
-
-        release = Segment(gripper=RELEASE, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        open_hand = Segment(gripper=0.0, arm_tol=1.0, base_tol=1.0, min_steps=GRIP_STEPS)
-        return [carry, lower, release, rise, open_hand]
+        return [*self.release_at(target_xy, release_z, yaw, RELEASE), grip_segment(0.0)]
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
@@ -371,12 +329,9 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     if TABLE not in objects:  # the cupboard variant (o12)
         return sort_cupboard3d.create_model(env)
     robot_obj = objects["robot"]
-    goal_expr = env.task.goal  # type: ignore[attr-defined]
-    regions: dict[str, str] = {}
-    for atom in goal_expr[1] if goal_expr[0] == "and" else [goal_expr]:
-        if atom[0] not in ("on", "in"):
-            raise ValueError(f"SortClutteredBlocks3D model: unsupported goal atom {atom!r}")
-        regions[atom[1]] = atom[2]
+    regions = dict(
+        placement_goal(env, "SortClutteredBlocks3D", lambda atom: atom[0] in ("on", "in"))
+    )
     specs = env.task.regions  # type: ignore[attr-defined]
     containers = {r: objects[specs[r].target] for r in set(regions.values())}
     cubes = tuple(sorted((objects[n] for n in regions), key=lambda o: int(o.name[4:])))
@@ -405,20 +360,15 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     pick = pick_operator(o, Loose)
     drop = place_operator(o, Sorted, "Drop")
 
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        del state
-        return frozenset({HandEmpty.ground([robot_obj])} | {Sorted.ground([c]) for c in cubes})
-
-    return PlanningModel(
-        name="sort_cluttered_blocks3d",
-        env=env,
-        types=(ROBOT_TYPE, MOVABLE_TYPE),
-        predicates=(HandEmpty, Holding, Loose, Sorted),
-        skills=(Skill(pick, PickController, ctx), Skill(drop, DropController, ctx)),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        objects_fn=lambda state: [robot_obj, *cubes],
-        max_skill_horizon=400,
+    return dynamic3d_model(
+        "sort_cluttered_blocks3d",
+        ctx,
+        [HandEmpty, Holding, Loose, Sorted],
+        [(pick, PickController), (drop, DropController)],
+        {HandEmpty.ground([robot_obj])} | {Sorted.ground([c]) for c in cubes},
+        abstraction,
+        cubes,
+        400,
     )
 
 

@@ -79,6 +79,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -86,12 +87,15 @@ from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.dynamic3d.object_types import FIXTURE_TYPE, MOVABLE_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, LiftedAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models import hand
 from kinder_gym.models.dynamic3d import constrained_cupboard3d as cupboard3d
 from kinder_gym.models.dynamic3d import shelf3d
 from kinder_gym.models.dynamic3d.tidybot import (
     SegmentSource,
+    dynamic3d_model,
     hand_predicates,
     hand_state,
+    placement_goal,
 )
 from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill
@@ -171,12 +175,12 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     objects: dict[str, Object] = env.objects  # type: ignore[attr-defined]
     robot_obj = objects["robot"]
     cupboard = objects[CUPBOARD]
-    goal_expr = env.task.goal  # type: ignore[attr-defined]
-    regions: dict[str, str] = {}
-    for atom in goal_expr[1] if goal_expr[0] == "and" else [goal_expr]:
-        if atom[0] != "on" or env.task.regions[atom[2]].target != CUPBOARD:  # type: ignore[attr-defined]
-            raise ValueError(f"SortClutteredBlocks3D-o12 model: unsupported goal atom {atom!r}")
-        regions[str(atom[1])] = str(atom[2])
+    specs = env.task.regions  # type: ignore[attr-defined]
+
+    def in_cupboard(atom: tuple[Any, ...]) -> bool:
+        return bool(atom[0] == "on" and specs[atom[2]].target == CUPBOARD)
+
+    regions = dict(placement_goal(env, "SortClutteredBlocks3D-o12", in_cupboard))
     rods = tuple(sorted(objects[n] for n in regions if "cuboid" in n))
     cubes = tuple(sorted(objects[n] for n in regions if "cuboid" not in n))
     items = (*rods, *cubes)
@@ -209,7 +213,6 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(OnGround.ground([obj]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
     f = Variable("?cupboard", FIXTURE_TYPE)
 
     # A rod on the top shelf overhangs the opening where the hand passes to the shelves below:
@@ -217,51 +220,44 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     top_empty = TopShelfEmpty.lift([f])
 
     def pick_place(
-        item: str, kind: Predicate, suffix: str, place_pre: frozenset[LiftedAtom],
-        place_del: frozenset[LiftedAtom],
+        item: str, kind: Predicate, suffix: str, place_pre: Sequence[LiftedAtom],
+        place_del: Sequence[LiftedAtom],
     ) -> tuple[LiftedOperator, LiftedOperator]:  # fmt: skip
         o = Variable(item, MOVABLE_TYPE)
-        pick = LiftedOperator(
-            f"Pick{suffix}",
-            (r, o),
-            frozenset({HandEmpty.lift([r]), OnGround.lift([o]), kind.lift([o])}),
-            frozenset({Holding.lift([r, o])}),
-            frozenset({HandEmpty.lift([r]), OnGround.lift([o])}),
+        is_kind = [kind.lift([o])]
+        pick = hand.pick_operator(
+            f"Pick{suffix}", HandEmpty, Holding, o, [OnGround.lift([o])], also_need=is_kind
         )
-        place = LiftedOperator(
+        place = hand.place_operator(
             f"Place{suffix}",
-            (r, o, f),
-            frozenset({Holding.lift([r, o]), kind.lift([o])}) | place_pre,
-            frozenset({HandEmpty.lift([r]), OnShelf.lift([o, f])}),
-            frozenset({Holding.lift([r, o])}) | place_del,
+            HandEmpty,
+            Holding,
+            o,
+            [OnShelf.lift([o, f])],
+            also_need=[*is_kind, *place_pre],
+            params=[f],
+            also_delete=place_del,
         )
         return pick, place
 
-    none: frozenset[LiftedAtom] = frozenset()
-    pick_cube, place_cube = pick_place("?cube", IsCube, "", frozenset({top_empty}), none)
-    pick_rod, place_rod = pick_place("?rod", IsRod, "Rod", none, frozenset({top_empty}))
+    pick_cube, place_cube = pick_place("?cube", IsCube, "", [top_empty], [])
+    pick_rod, place_rod = pick_place("?rod", IsRod, "Rod", [], [top_empty])
 
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        del state
-        return frozenset(
-            {HandEmpty.ground([robot_obj])} | {OnShelf.ground([o, cupboard]) for o in items}
-        )
-
-    return PlanningModel(
-        name="sort_cupboard3d",
-        env=env,
-        types=(ROBOT_TYPE, MOVABLE_TYPE, FIXTURE_TYPE),
-        predicates=(HandEmpty, Holding, OnGround, OnShelf, IsCube, IsRod, TopShelfEmpty),
-        skills=(
+    return dynamic3d_model(
+        "sort_cupboard3d",
+        cube_ctx,
+        [HandEmpty, Holding, OnGround, OnShelf, IsCube, IsRod, TopShelfEmpty],
+        [
             Skill(pick_cube, CubePickController, cube_ctx),
             Skill(place_cube, CubePlaceController, cube_ctx),
             Skill(pick_rod, RodPickController, rod_ctx),
             Skill(place_rod, RodPlaceController, rod_ctx),
-        ),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        objects_fn=lambda state: [robot_obj, cupboard, *items],
-        max_skill_horizon=400,
+        ],
+        {HandEmpty.ground([robot_obj])} | {OnShelf.ground([o, cupboard]) for o in items},
+        abstraction,
+        [cupboard, *items],
+        400,
+        types=[ROBOT_TYPE, MOVABLE_TYPE, FIXTURE_TYPE],
     )
 
 

@@ -144,18 +144,21 @@ from kinder_garden3d.robot.description import (
 )
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models import hand
 from kinder_gym.models.dynamic3d.tidybot import (
     HOME,
+    Dynamic3DContext,
     Dynamic3DController,
     Segment,
     SegmentSource,
     arm_joints,
     base_pose,
+    dynamic3d_model,
     hand_predicates,
     ik_near,
 )
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.operators import GroundOperator, LiftedOperator
+from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 DRAWER = "kitchen_island_drawer_s1c1"
@@ -676,31 +679,15 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
                 atoms.add(Lost.ground([s]))
         return frozenset(atoms)
 
-    r = Variable("?robot", ROBOT_TYPE)
     d = Variable("?drawer", DRAWER_TYPE)
     w = Variable("?wiper", MOVABLE_TYPE)
     s = Variable("?screw", MOVABLE_TYPE)
-    open_drawer = LiftedOperator(
-        "OpenDrawer",
-        (r, d),
-        frozenset({HandEmpty.lift([r]), DrawerClosed.lift([d])}),
-        frozenset({DrawerOpen.lift([d])}),
-        frozenset({DrawerClosed.lift([d])}),
+    closed, opened = [DrawerClosed.lift([d])], [DrawerOpen.lift([d])]
+    open_drawer = hand.empty_hand_operator("OpenDrawer", HandEmpty, [d], closed, opened, closed)
+    pick_wiper = hand.pick_operator(
+        "PickWiper", HandEmpty, Holding, w, opened, params=[d], delete_source=False
     )
-    pick_wiper = LiftedOperator(
-        "PickWiper",
-        (r, w, d),
-        frozenset({HandEmpty.lift([r]), DrawerOpen.lift([d])}),
-        frozenset({Holding.lift([r, w])}),
-        frozenset({HandEmpty.lift([r])}),
-    )
-    sweep = LiftedOperator(
-        "Sweep",
-        (r, w, d, s),
-        frozenset({Holding.lift([r, w]), DrawerOpen.lift([d])}),
-        frozenset({InDrawer.lift([s])}),
-        frozenset(),
-    )
+    sweep = hand.tool_operator("Sweep", Holding, w, [d, s], opened, [InDrawer.lift([s])])
 
     def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
         del state
@@ -710,25 +697,21 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
             return False
         return op.parent is pick_wiper or op.objects[3] in screws
 
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        del state
-        return frozenset(InDrawer.ground([x]) for x in screws)
-
-    return PlanningModel(
-        name="sweep_into_drawer3d",
-        env=env,
-        types=(ROBOT_TYPE, DRAWER_TYPE, MOVABLE_TYPE),
-        predicates=(DrawerOpen, DrawerClosed, HandEmpty, Holding, InDrawer, Lost),
-        skills=(
+    return dynamic3d_model(
+        "sweep_into_drawer3d",
+        Dynamic3DContext(env, robot),
+        [DrawerOpen, DrawerClosed, HandEmpty, Holding, InDrawer, Lost],
+        [
             Skill(open_drawer, OpenDrawerController, env),
             Skill(pick_wiper, PickWiperController, env),
             Skill(sweep, SweepController, env),
-        ),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        objects_fn=lambda state: [robot, drawer, wiper, *screws],
-        max_skill_horizon=300,
-        max_episode_steps=env.spec.max_episode_steps if env.spec is not None else None,
+        ],
+        (InDrawer.ground([x]) for x in screws),
+        abstraction,
+        [drawer, wiper, *screws],
+        300,
+        types=[ROBOT_TYPE, DRAWER_TYPE, MOVABLE_TYPE],
+        step_limit=True,
         operator_filter=keep,
         monotone_predicates=frozenset({"InDrawer"}),
     )

@@ -20,16 +20,17 @@ base-path geometry (:func:`segment_point_distance`, :func:`segment_rect_distance
 (:meth:`Dynamic3DController.drive`), the context every controller gets
 (:class:`Dynamic3DContext`), the side grasp of an object on the floor (:func:`face_heading`,
 :func:`grasp_and_lift`, :class:`FloorPickController`), the top-down moves with the base fixed
-(:class:`TopDownController`) and the hand's predicates (:func:`hand_predicates`).
+(:class:`TopDownController`), the hand's predicates (:func:`hand_predicates`) and the model
+itself (:func:`dynamic3d_model`).
 """
 
 from __future__ import annotations
 
 import abc
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
-from typing import Literal, TypeAlias
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal, TypeAlias
 
 import numpy as np
 from gymnasium import spaces
@@ -45,10 +46,11 @@ from kinder_garden3d.robot.description import (
 )
 from kinder_garden3d.robot.ik import InverseKinematics
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
 from kinder_gym.models import hand
 from kinder_gym.motion_planning import FloatArray, wrap_angle
 from kinder_gym.operators import LiftedOperator
-from kinder_gym.skills import Controller, SkillFailure
+from kinder_gym.skills import Controller, Skill, SkillFailure
 
 #: The retracted arm (the env's start pose, upstream's retract pose), carried while the base drives.
 HOME = np.array(HOME_ARM, dtype=np.float64)
@@ -131,6 +133,28 @@ def face_heading(state: ObjectCentricState, obj: Object, wanted: float) -> float
     return wrap_angle(yaw + k * math.pi / 2)
 
 
+def floor_points(
+    state: ObjectCentricState, objects: Sequence[Object], skip: Object | None, below: float
+) -> list[FloatArray]:
+    """The positions (x, y) of the ``objects`` other than ``skip`` whose centres are lower than
+    ``below`` (m): those on the floor, which a driving base has to keep clear of."""
+    return [
+        np.array([state.get(o, "x"), state.get(o, "y")])
+        for o in objects
+        if o != skip and state.get(o, "z") < below
+    ]
+
+
+def face_approach(
+    state: ObjectCentricState, obj: Object, wanted: float
+) -> tuple[FloatArray, float, FloatArray]:
+    """The approach of a side grasp at the object's centre (x, y): the heading of
+    :func:`face_heading` and its unit vector."""
+    heading = face_heading(state, obj, wanted)
+    direction = np.array([math.cos(heading), math.sin(heading)])
+    return np.array([state.get(obj, "x"), state.get(obj, "y")]), heading, direction
+
+
 def segment_point_distance(a: FloatArray, b: FloatArray, p: FloatArray) -> float:
     """Distance between the segment from ``a`` to ``b`` and the point ``p``."""
     ab = b - a
@@ -148,6 +172,69 @@ def segment_rect_distance(
     local = (pts - centre) @ axes
     excess = np.maximum(np.abs(local) - half, 0.0)
     return float(np.min(np.linalg.norm(excess, axis=1)))
+
+
+def placement_goal(
+    env: ObjectCentricEnv, model: str, accept: Callable[[tuple[Any, ...]], bool]
+) -> list[tuple[str, str]]:
+    """``(object, region)`` of every atom of the task's goal, an ``and`` of placement atoms
+    ``(predicate, object, region)`` (or one); a ValueError names ``model`` and the first atom
+    that ``accept`` refuses."""
+    goal = env.task.goal  # type: ignore[attr-defined]
+    placed = []
+    for atom in goal[1] if goal[0] == "and" else [goal]:
+        if not accept(atom):
+            raise ValueError(f"{model} model: unsupported goal atom {atom!r}")
+        placed.append((str(atom[1]), str(atom[2])))
+    return placed
+
+
+def yaw_axes(yaw: float) -> FloatArray:
+    """The unit axes (x, y), as columns, of a frame turned by ``yaw``."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s], [s, c]])
+
+
+def chassis_clear_of_box(
+    a: FloatArray,
+    b: FloatArray,
+    centre: FloatArray,
+    axes: FloatArray,
+    half: FloatArray,
+    margin: float,
+) -> bool:
+    """Whether the chassis (:data:`CHASSIS_RADIUS` around the base centre) driving straight from
+    ``a`` to ``b`` stays more than ``margin`` (m) clear of a rectangle (see
+    :func:`segment_rect_distance`)."""
+    return segment_rect_distance(a, b, centre, axes, half) > CHASSIS_RADIUS + margin
+
+
+def clear_of_points(
+    a: FloatArray, b: FloatArray, points: Sequence[FloatArray], clearance: float
+) -> bool:
+    """Whether the base centre driving straight from ``a`` to ``b`` keeps more than
+    ``clearance`` (m) from every point (x, y) (objects on the floor, :func:`floor_points`)."""
+    return all(segment_point_distance(a, b, p) > clearance for p in points)
+
+
+def region_spot(
+    env: ObjectCentricEnv,
+    state: ObjectCentricState,
+    region: str,
+    box: int,
+    u: float,
+    v: float,
+    margin: float = 0.0,
+) -> FloatArray:
+    """The world (x, y) at fractions ``(u, v)`` of the x and y extents of box ``box`` of a goal
+    region, shrunk by ``margin`` (m) on every side, in the region's frame (which moves with what
+    the region is attached to)."""
+    b = env.task.regions[region].boxes[box]  # type: ignore[attr-defined]
+    frame = env.regions.transform(state, region)  # type: ignore[attr-defined]
+    lo = np.asarray(b[:2], dtype=np.float64) + margin
+    hi = np.asarray(b[3:5], dtype=np.float64) - margin
+    local = np.array([*(lo + np.array([u, v]) * (hi - lo)), 0.0])
+    return np.asarray((frame[:3, :3] @ local + frame[:3, 3])[:2], dtype=np.float64)
 
 
 def hand_predicates(held: Type = MOVABLE_TYPE) -> tuple[Predicate, Predicate]:
@@ -195,6 +282,45 @@ def pick_place_domain(
         "Place", hand_empty, holding, c, [on_shelf.lift([c, f])], params=[f]
     )
     return (hand_empty, holding, on_ground, on_shelf), pick, place
+
+
+def dynamic3d_model(
+    name: str,
+    ctx: Dynamic3DContext,
+    predicates: Sequence[Predicate],
+    skills: Sequence[Skill | tuple[LiftedOperator, type[Controller]]],
+    goal: Iterable[GroundAtom],
+    abstraction: Callable[[ObjectCentricState], frozenset[GroundAtom]],
+    objects: Sequence[Object],
+    horizon: int,
+    types: Sequence[Type] = (ROBOT_TYPE, MOVABLE_TYPE),
+    step_limit: bool = False,
+    **options: Any,
+) -> PlanningModel:
+    """A Dynamic3D planning model over the object ``types`` (the robot's and the movables'), the
+    ``skills`` (an ``(operator, controller class)`` pair is a skill whose controllers are given
+    ``ctx``); the ``goal`` atoms
+    whatever the episode's state; operators grounded over the robot and ``objects``; at most
+    ``horizon`` steps a skill. With ``step_limit`` the planner plans within the env's episode
+    step limit. ``options`` go to :class:`~kinder_gym.model.PlanningModel`
+    (``operator_filter``, ``monotone_predicates``)."""
+    goal_atoms = frozenset(goal)
+    robot = ctx.robot
+    listed = list(objects)
+    spec = ctx.env.spec
+    return PlanningModel(
+        name=name,
+        env=ctx.env,
+        types=tuple(types),
+        predicates=tuple(predicates),
+        skills=tuple(s if isinstance(s, Skill) else Skill(*s, ctx) for s in skills),
+        goal_fn=lambda state: goal_atoms,
+        abstraction_fn=abstraction,
+        objects_fn=lambda state: [robot, *listed],
+        max_skill_horizon=horizon,
+        max_episode_steps=spec.max_episode_steps if step_limit and spec is not None else None,
+        **options,
+    )
 
 
 def gripper_quat(yaw: float, pitch: float) -> FloatArray:
@@ -383,37 +509,27 @@ def drive_segment(
     gripper: float,
     tol: float,
     speed: tuple[float, float] = (MAX_DELTA, MAX_DELTA),
+    reach: bool = False,
 ) -> Segment:
     """A segment driving the base to ``goal`` ``(x, y, yaw)`` with the arm held at ``arm``, at
     most ``speed`` (m, rad) per action, with a step budget of the larger of the distance and the
-    turn at that speed, plus 40."""
+    turn at that speed, plus 40. With ``reach`` the arm moves to ``arm`` while the base drives,
+    and the budget also covers the arm's largest joint turn at :data:`ARM_SPEED`, plus 40."""
     start = base_pose(state, robot)
     dist = float(np.linalg.norm(goal[:2] - start[:2]))
     turn = abs(wrap_angle(float(goal[2] - start[2])))
+    steps = math.ceil(max(dist / speed[0], turn / speed[1])) + 40
+    if reach:
+        steps = max(steps, math.ceil(arm_turn(arm_joints(state, robot), arm) / ARM_SPEED) + 40)
     return Segment(
         base=(float(goal[0]), float(goal[1]), float(goal[2])),
         arm=tuple(float(v) for v in arm),
         gripper=gripper,
         arm_tol=0.05,
         base_tol=tol,
-        max_steps=math.ceil(max(dist / speed[0], turn / speed[1])) + 40,
+        max_steps=steps,
         base_speed=speed,
     )
-
-
-def drive_reach_segment(
-    state: ObjectCentricState,
-    robot: Object,
-    goal: FloatArray,
-    arm: FloatArray,
-    gripper: float,
-    tol: float,
-) -> Segment:
-    """:func:`drive_segment` for an arm that moves to ``arm`` while the base drives: its step
-    budget also covers the arm's largest joint turn at :data:`ARM_SPEED`, plus 40."""
-    seg = drive_segment(state, robot, goal, arm, gripper, tol)
-    steps = math.ceil(arm_turn(arm_joints(state, robot), arm) / ARM_SPEED) + 40
-    return replace(seg, max_steps=max(seg.max_steps, steps))
 
 
 class Dynamic3DController(Controller):
@@ -465,7 +581,7 @@ class Dynamic3DController(Controller):
         assert state is not None
         return drive_segment(state, self.robot, goal, arm, gripper, tol, speed)
 
-    def retract(self, state: ObjectCentricState) -> list[SegmentSource]:
+    def retract_arm(self, state: ObjectCentricState) -> list[SegmentSource]:
         """The move of the arm to :data:`HOME`, the pose it drives in; nothing when every joint
         is within 0.05 rad of it."""
         if np.abs(arm_joints(state, self.robot) - HOME).max() > 0.05:
@@ -541,23 +657,36 @@ class Dynamic3DController(Controller):
 class FloorPickController(Dynamic3DController):
     """Pick an object off the floor from the side. Objects: ``(robot, obj)``.
 
-    Retract the arm, drive (through :meth:`route`) to stand 0.50 + 0.10·``params[0]`` metres
-    short of the object, facing the side face nearest to :meth:`wanted_heading`; reach above the
-    object's measured position (the chassis may nudge it on the way) and :func:`grasp_and_lift`
-    it at :meth:`grasp_z` to :attr:`lift_z`. A family says what the other parameters mean."""
+    Drive (through :meth:`route`) to stand :meth:`standoff` metres short of the grasp point
+    (:meth:`approach`; :func:`face_approach` for the object's centre), and :func:`grasp_and_lift`
+    the object at :meth:`grasp_z` to :attr:`lift_z`. The arm either stays retracted while the
+    base drives and then reaches above the grasp point where the object is then (the chassis may
+    nudge it on the way), or (:attr:`swing`) swings to above the grasp point while the base
+    drives, passing 15 cm above the floor, and grasps where the object was when the skill
+    started. A family says what the parameters mean."""
 
     params_space = spaces.Box(0.0, 1.0, (2,), dtype=np.float64)
     hand_must_be = "open"
     #: Distance (m) short of the object's centre, along the heading, where the fingers close.
     grasp_back = 0.005
-    #: Height (m) to which the pinch point lifts the object.
+    #: Height (m) to which the pinch point lifts the object, and the lift's IK waypoint spacing.
     lift_z = 0.15
+    lift_spacing = 0.06
+    #: Whether the arm swings to above the object while the base drives.
+    swing = False
     #: Base tolerance (m, rad) at the waypoints of the route before its end.
     via_tol = 0.03
 
     @abc.abstractmethod
-    def wanted_heading(self, state: ObjectCentricState, obj: Object) -> float:
-        """The heading (rad) the base should approach the object along, roughly."""
+    def approach(
+        self, state: ObjectCentricState, obj: Object
+    ) -> tuple[FloatArray, float, FloatArray]:
+        """The grasp point (x, y), the heading the base faces it along and that heading's unit
+        vector (x, y)."""
+
+    def standoff(self) -> float:
+        """Distance (m) from the grasp point at which the base stops: 0.50–0.60 m."""
+        return 0.50 + 0.10 * float(self.params[0])
 
     def route(self, state: ObjectCentricState, goal: FloatArray) -> list[FloatArray]:
         """The base poses to drive through, ending at ``goal`` (raise SkillFailure when no
@@ -572,31 +701,40 @@ class FloorPickController(Dynamic3DController):
 
     def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
         robot, obj = self.objects[:2]
-        dist = 0.50 + 0.10 * float(self.params[0])
-        heading = face_heading(state, obj, self.wanted_heading(state, obj))
-        direction = np.array([math.cos(heading), math.sin(heading)])
-        c = np.array([state.get(obj, "x"), state.get(obj, "y")])
+        dist = self.standoff()
+        c, heading, direction = self.approach(state, obj)
         goal = np.array([*(c - dist * direction), heading])
         route = self.route(state, goal)
         quat = gripper_quat(heading, PITCH)
         grasp_z = self.grasp_z(state, obj)
+        if self.swing:
+            above = np.array([*(c - 0.01 * direction), 0.15])
+            ready = nearest_ik(above, quat, goal, arm_joints(state, robot), READY)
+            grasp = np.array([*(c - self.grasp_back * direction), grasp_z])
+            return [
+                *(drive_segment(state, robot, p, ready, 0.0, self.via_tol, reach=True)
+                  for p in route[:-1]),
+                drive_segment(state, robot, goal, ready, 0.0, 0.01, reach=True),
+                *grasp_and_lift(robot, heading, grasp, self.lift_z, self.lift_spacing),
+            ]  # fmt: skip
 
         def _at(s: ObjectCentricState, back: float, z: float) -> FloatArray:
             here = np.array([s.get(obj, "x"), s.get(obj, "y")])
             return np.array([*(here - back * direction), z])
+
+        def grasp_at(s: ObjectCentricState) -> FloatArray:
+            return _at(s, self.grasp_back, grasp_z)
 
         def reach_above(s: ObjectCentricState) -> list[Segment]:
             q = ik_near(_at(s, 0.01, 0.15), quat, base_pose(s, robot), READY)
             return [Segment(arm=tuple(float(v) for v in q), arm_tol=0.01, max_steps=80)]
 
         return [
-            *self.retract(state),
+            *self.retract_arm(state),
             *(self.drive(p, HOME, 0.0, self.via_tol) for p in route[:-1]),
             self.drive(goal, HOME, 0.0, 0.01),
             reach_above,
-            *grasp_and_lift(
-                robot, heading, lambda s: _at(s, self.grasp_back, grasp_z), self.lift_z, 0.06
-            ),
+            *grasp_and_lift(robot, heading, grasp_at, self.lift_z, self.lift_spacing),
         ]
 
 
@@ -640,6 +778,66 @@ class TopDownController(Dynamic3DController):
                 return b, yaw
         raise SkillFailure(f"{type(self).__name__}: out of top-down reach from beside the base")
 
+    def grasp_from_above(
+        self, xy: FloatArray, grasp_z: float, yaw: float, opening: float, spacing: float = 0.03
+    ) -> list[SegmentSource]:
+        """Move the pinch point above ``xy`` at the travel height, descend to ``grasp_z`` (the
+        hand at the command ``opening``, an IK waypoint every ``spacing`` metres), close the hand
+        and lift back to the travel height; the gripper heads ``yaw``."""
+        robot = self.robot
+
+        def above(s: ObjectCentricState) -> list[Segment]:
+            return [self.to_travel(s, xy, yaw)]
+
+        def descend(s: ObjectCentricState) -> list[Segment]:
+            target = np.array([*xy, grasp_z])
+            return line_segments(s, robot, target, yaw, DOWN, opening, spacing=spacing)
+
+        def lift(s: ObjectCentricState) -> list[Segment]:
+            p = pinch_position(base_pose(s, robot), arm_joints(s, robot))
+            target = np.array([p[0], p[1], self.travel_z])
+            return line_segments(
+                s, robot, target, yaw, DOWN, 1.0, spacing=0.05, final_tol=LOADED_TOL
+            )
+
+        return [above, descend, grip_segment(1.0), lift]
+
+    def held(
+        self, state: ObjectCentricState, obj: Object
+    ) -> tuple[FloatArray, float, FloatArray, float]:
+        """The pinch point, the heading of the top-down gripper, the held object's centre
+        relative to the pinch point and the height of the object's bottom."""
+        base = base_pose(state, self.robot)
+        arm = arm_joints(state, self.robot)
+        pinch = pinch_position(base, arm)
+        c = np.array([state.get(obj, f) for f in ("x", "y", "z")])
+        bottom = float(c[2]) - 0.5 * state.get(obj, "bb_z")
+        return pinch, top_down_yaw(base, arm), c - pinch, bottom
+
+    def release_at(
+        self, xy: FloatArray, release_z: float, yaw: float, opening: float
+    ) -> list[SegmentSource]:
+        """Carry the held object with the pinch point at the travel height to above ``xy``,
+        lower it to ``release_z``, open the hand to the command ``opening`` and rise back to the
+        travel height; the gripper heads ``yaw``."""
+        robot = self.robot
+
+        def carry(s: ObjectCentricState) -> list[Segment]:
+            goal = np.array([*xy, self.travel_z])
+            return line_segments(s, robot, goal, yaw, DOWN, 1.0, spacing=0.05, final_tol=LOADED_TOL)
+
+        def lower(s: ObjectCentricState) -> list[Segment]:
+            goal = np.array([*xy, release_z])
+            return line_segments(s, robot, goal, yaw, DOWN, 1.0, final_tol=LOADED_TOL)
+
+        def rise(s: ObjectCentricState) -> list[Segment]:
+            goal = np.array([*xy, self.travel_z])
+            return line_segments(
+                s, robot, goal, yaw, DOWN, opening, spacing=0.05, final_tol=LOADED_TOL
+            )
+
+        return [carry, lower, grip_segment(opening), rise]
+
     def shift_base(self, state: ObjectCentricState, goal: FloatArray) -> list[SegmentSource]:
         """The drive to ``goal`` (the arm and gripper held), or nothing when the base is there."""
         if np.abs(goal - base_pose(state, self.robot)).max() < 1e-9:
@@ -674,9 +872,13 @@ __all__ = [
     "arm_joints",
     "arm_turn",
     "base_pose",
-    "drive_reach_segment",
+    "chassis_clear_of_box",
+    "clear_of_points",
     "drive_segment",
+    "dynamic3d_model",
+    "face_approach",
     "face_heading",
+    "floor_points",
     "grasp_and_lift",
     "grasp_yaws",
     "grip_segment",
@@ -689,7 +891,10 @@ __all__ = [
     "pick_place_domain",
     "pinch_position",
     "place_operator",
+    "placement_goal",
+    "region_spot",
     "segment_point_distance",
     "segment_rect_distance",
     "top_down_yaw",
+    "yaw_axes",
 ]

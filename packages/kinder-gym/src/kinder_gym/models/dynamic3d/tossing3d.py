@@ -94,6 +94,7 @@ seeds (``kinder bench run -a bilevel_planning --env kinder/Tossing3D-o2-v0 --see
 
 from __future__ import annotations
 
+import abc
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -103,7 +104,7 @@ from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.dynamic3d.geometry import quat_to_matrix, quat_yaw
-from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE, ROBOT_TYPE
+from kinder_garden3d.dynamic3d.object_types import MOVABLE_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models import hand
@@ -118,18 +119,21 @@ from kinder_gym.models.dynamic3d.tidybot import (
     SegmentSource,
     arm_joints,
     base_pose,
+    chassis_clear_of_box,
+    clear_of_points,
+    dynamic3d_model,
+    face_approach,
     grip_segment,
     hand_predicates,
     hand_state,
     line_segments,
     pick_operator,
     pinch_position,
-    segment_point_distance,
-    segment_rect_distance,
+    yaw_axes,
 )
 from kinder_gym.motion_planning import FloatArray
 from kinder_gym.operators import GroundOperator
-from kinder_gym.skills import Skill, SkillFailure
+from kinder_gym.skills import SkillFailure
 
 GOAL_REGION = "blocks_goal_region"
 #: Height (m) of the pinch point while carrying and dropping (the bin's rim is at 0.2 m).
@@ -196,20 +200,17 @@ def _path_clear(
     of the bin and of the cubes on the floor other than ``skip``."""
     if not _in_room(b):
         return False
-    yaw = quat_yaw(np.asarray(state[ctx.bin][3:7]))
-    axes = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+    centre = _xy(state, ctx.bin)
+    axes = yaw_axes(quat_yaw(np.asarray(state[ctx.bin][3:7])))
     half = np.array([state.get(ctx.bin, "bb_x"), state.get(ctx.bin, "bb_y")]) / 2
-    if segment_rect_distance(a, b, _xy(state, ctx.bin), axes, half) < CHASSIS_RADIUS + 0.03:
+    if not chassis_clear_of_box(a, b, centre, axes, half, 0.03):
         return False
-    for cube in ctx.cubes:
-        if cube == skip or state.get(cube, "z") > 0.05:
-            continue
-        pos = _xy(state, cube)
-        if np.linalg.norm(pos - _xy(state, ctx.bin)) < 0.2:  # in the bin
-            continue
-        if segment_point_distance(a, b, pos) < CUBE_CLEARANCE:
-            return False
-    return True
+    floor = [  # the cubes on the floor, less those in the bin
+        _xy(state, c)
+        for c in ctx.cubes
+        if c != skip and state.get(c, "z") <= 0.05 and np.linalg.norm(_xy(state, c) - centre) >= 0.2
+    ]
+    return clear_of_points(a, b, floor, CUBE_CLEARANCE)
 
 
 class ToppleController(Dynamic3DController):
@@ -235,7 +236,7 @@ class ToppleController(Dynamic3DController):
         if not _path_clear(ctx, state, side, np.array([end_x, lane]), None):
             raise SkillFailure("Topple: the lane is blocked")
         return [
-            *self.retract(state),
+            *self.retract_arm(state),
             self.drive(np.array([b0[0], lane, 0.0]), HOME, 0.0, 0.02),
             self.drive(np.array([end_x, lane, 0.0]), HOME, 0.0, 0.03),
         ]
@@ -250,9 +251,10 @@ class PickController(FloorPickController):
     )
     lift_z = CARRY_Z
 
-    def wanted_heading(self, state: ObjectCentricState, obj: Object) -> float:
-        del state, obj
-        return (2.0 * float(self.params[1]) - 1.0) * math.pi
+    def approach(
+        self, state: ObjectCentricState, obj: Object
+    ) -> tuple[FloatArray, float, FloatArray]:
+        return face_approach(state, obj, (2.0 * float(self.params[1]) - 1.0) * math.pi)
 
     def route(self, state: ObjectCentricState, goal: FloatArray) -> list[FloatArray]:
         """Straight, clear of the bin and of the other cubes on the floor."""
@@ -262,8 +264,36 @@ class PickController(FloorPickController):
         return [goal]
 
 
-class DropController(Dynamic3DController):
-    """Carry the held cube over the bin and release it. Objects: ``(robot, cube, bin, barrier)``."""
+class _BinDropController(Dynamic3DController):
+    """Carry the held cube, the arm held as it is, straight to a base pose near the bin (slowly:
+    :data:`CARRY_SPEED`), release it above the bin and back away. Objects:
+    ``(robot, cube, bin, barrier)``."""
+
+    hand_must_be = "closed"
+    #: What the refusal of a blocked straight base path says.
+    blocked = "the straight base path is blocked"
+
+    @abc.abstractmethod
+    def moves(
+        self, state: ObjectCentricState, arm: FloatArray
+    ) -> tuple[FloatArray, list[SegmentSource], list[SegmentSource]]:
+        """The base pose to drive to, the segments there before the hand opens and those after
+        (raise SkillFailure when the drop cannot be made)."""
+
+    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+        robot, cube = self.objects[:2]
+        arm = arm_joints(state, robot)
+        stand, before, after = self.moves(state, arm)
+        if not _path_clear(self.context, state, base_pose(state, robot)[:2], stand[:2], cube):
+            raise SkillFailure(self.blocked)
+        release = grip_segment(0.0, GRIP_STEPS + 4)
+        return [self.drive(stand, arm, 1.0, 0.01, CARRY_SPEED), *before, release, *after]
+
+
+class DropController(_BinDropController):
+    """Carry the held cube over the bin beyond the toppled barrier, re-aim the base at the bin's
+    measured position (it may have been nudged) and release the cube. Objects:
+    ``(robot, cube, bin, barrier)``."""
 
     params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
     params_doc = (
@@ -271,25 +301,21 @@ class DropController(Dynamic3DController):
         "the line from the base to the bin's centre; the hand opens with the pinch point "
         "0.08·(u − 0.5), 0.08·(v − 0.5) metres (world x, y) from the bin's centre."
     )
+    blocked = "Drop: the straight base path to the bin is blocked"
 
-    hand_must_be = "closed"
-
-    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+    def moves(
+        self, state: ObjectCentricState, arm: FloatArray
+    ) -> tuple[FloatArray, list[SegmentSource], list[SegmentSource]]:
         ctx: TossContext = self.context
-        robot, cube = self.objects[:2]
-        b0 = base_pose(state, robot)
-        arm = arm_joints(state, robot)
+        robot = self.robot
         centre = _xy(state, ctx.bin)
-        to_bin = centre - b0[:2]
+        to_bin = centre - base_pose(state, robot)[:2]
         heading = math.atan2(to_bin[1], to_bin[0]) + (float(self.params[0]) - 0.5) * 2 * math.pi / 3
         spot = centre + 0.08 * (np.asarray(self.params[1:3]) - 0.5)
         # The arm is held fixed: the pinch point keeps its offset in the base frame.
         offset = pinch_position(np.array([0.0, 0.0, heading]), arm)[:2]
         goal = np.array([*(spot - offset), heading])
-        if not _path_clear(ctx, state, b0[:2], goal[:2], cube):
-            raise SkillFailure("Drop: the straight base path to the bin is blocked")
         back = goal[:2] - 0.3 * np.array([math.cos(heading), math.sin(heading)])
-        release = grip_segment(0.0, GRIP_STEPS + 4)
 
         def re_aim(s: ObjectCentricState) -> list[Segment]:
             # Closed loop on the bin: it may have been nudged, and the base stops within 1 cm.
@@ -300,20 +326,16 @@ class DropController(Dynamic3DController):
             target = base_pose(s, robot)[:2] + error
             return [self.drive(np.array([*target, heading]), arm, 1.0, 0.005, CARRY_SPEED)]
 
-        return [
-            self.drive(goal, arm, 1.0, 0.01, CARRY_SPEED),
-            re_aim,
-            release,
-            Segment(
-                base=(float(back[0]), float(back[1]), heading),
-                arm=tuple(arm),
-                arm_tol=0.05,
-                base_tol=0.03,
-            ),
-        ]
+        away = Segment(
+            base=(float(back[0]), float(back[1]), heading),
+            arm=tuple(arm),
+            arm_tol=0.05,
+            base_tol=0.03,
+        )
+        return goal, [re_aim], [away]
 
 
-class DropOverController(Dynamic3DController):
+class DropOverController(_BinDropController):
     """Release the held cube above the bin with the arm stretched over the upright barrier.
     Objects: ``(robot, cube, bin, barrier)``."""
 
@@ -323,38 +345,35 @@ class DropOverController(Dynamic3DController):
         "from the bin's centre (on the robot's side of it), the base facing +x just short of the "
         "barrier."
     )
+    blocked = "DropOver: the straight base path to the barrier is blocked"
 
-    hand_must_be = "closed"
-
-    def plan(self, state: ObjectCentricState) -> list[SegmentSource]:
+    def moves(
+        self, state: ObjectCentricState, arm: FloatArray
+    ) -> tuple[FloatArray, list[SegmentSource], list[SegmentSource]]:
         ctx: TossContext = self.context
-        robot, cube = self.objects[:2]
-        b0 = base_pose(state, robot)
-        arm = arm_joints(state, robot)
+        robot = self.robot
         u, v = (float(x) for x in self.params)
         spot = _xy(state, ctx.bin) + np.array([-0.08 * u, 0.08 * (v - 0.5)])
         front = state.get(ctx.barrier, "x") - state.get(ctx.barrier, "bb_x") / 2
         stand = np.array([front - OVER_STANDOFF, spot[1], 0.0])
         if spot[0] - stand[0] > OVER_REACH:
             raise SkillFailure("DropOver: the bin is out of reach from behind the barrier")
-        if not _path_clear(ctx, state, b0[:2], stand[:2], cube):
-            raise SkillFailure("DropOver: the straight base path to the barrier is blocked")
         target = np.array([*spot, CARRY_Z])
-        release = grip_segment(0.0, GRIP_STEPS + 4)
 
         def reach(s: ObjectCentricState) -> list[Segment]:
             return line_segments(s, robot, target, 0.0, OVER_PITCH, 1.0, spacing=0.05)
 
         back = (float(stand[0]) - OVER_BACK_OFF, float(stand[1]), 0.0)
-        return [
-            self.drive(stand, arm, 1.0, 0.01, CARRY_SPEED),
-            reach,
-            release,
-            Segment(arm=tuple(HOME), arm_tol=0.05, max_steps=80),
-            # Back away before anything turns the base: a turning chassis this close to the
-            # barrier (its corners reach 0.28 m out) knocks it over.
-            Segment(base=back, arm=tuple(HOME), arm_tol=0.05, base_tol=0.03),
-        ]
+        return (
+            stand,
+            [reach],
+            [
+                Segment(arm=tuple(HOME), arm_tol=0.05, max_steps=80),
+                # Back away before anything turns the base: a turning chassis this close to the
+                # barrier (its corners reach 0.28 m out) knocks it over.
+                Segment(base=back, arm=tuple(HOME), arm_tol=0.05, base_tol=0.03),
+            ],
+        )
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
@@ -411,26 +430,21 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
             return op.objects[1] in cubes
         return op.objects[1] in cubes and op.objects[2:] == (bin_obj, barrier)  # both drops
 
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        del state
-        return frozenset(InBin.ground([c, bin_obj]) for c in cubes)
-
-    return PlanningModel(
-        name="tossing3d",
-        env=env,
-        types=(ROBOT_TYPE, MOVABLE_TYPE),
-        predicates=(HandEmpty, Holding, OnGround, InBin, Upright, Toppled),
-        skills=(
-            Skill(topple, ToppleController, ctx),
-            Skill(pick, PickController, ctx),
-            Skill(drop, DropController, ctx),
-            Skill(drop_over, DropOverController, ctx),
-        ),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        objects_fn=lambda state: [robot_obj, barrier, bin_obj, *cubes],
-        max_skill_horizon=400,
-        max_episode_steps=env.spec.max_episode_steps if env.spec is not None else None,
+    return dynamic3d_model(
+        "tossing3d",
+        ctx,
+        [HandEmpty, Holding, OnGround, InBin, Upright, Toppled],
+        [
+            (topple, ToppleController),
+            (pick, PickController),
+            (drop, DropController),
+            (drop_over, DropOverController),
+        ],
+        (InBin.ground([c, bin_obj]) for c in cubes),
+        abstraction,
+        [barrier, bin_obj, *cubes],
+        400,
+        step_limit=True,
         operator_filter=keep,
     )
 

@@ -81,7 +81,7 @@ from kinder_garden2d.kinematic2d.object_types import CRV_ROBOT, SHELF, TARGET_BL
 from kinder_garden2d.kinematic2d.predicates import is_inside_shelf, rectangle_vertices
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.hand import pick_operator, place_operator
+from kinder_gym.models.hand import empty_hand_operator, pick_operator, place_operator
 from kinder_gym.models.kinematic2d.crv import (
     ARM_JOINT,
     ARM_LENGTH,
@@ -103,7 +103,6 @@ from kinder_gym.models.kinematic2d.crv_script import (
     with_arm,
 )
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 #: Gap between the gripper's outer edge and the grasped face, as a fraction of the gripper
@@ -507,15 +506,11 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     ShelfClear = Predicate("ShelfClear", (SHELF,), lambda s, o: clear(s, o[0]))
     ShelfCluttered = Predicate("ShelfCluttered", (SHELF,), lambda s, o: not clear(s, o[0]))
 
-    r = Variable("?robot", CRV_ROBOT)
     b = Variable("?block", TARGET_BLOCK)
     sh = Variable("?shelf", SHELF)
-    clear_shelf = LiftedOperator(
-        "ClearShelf",
-        (r, sh),
-        frozenset({HandEmpty.lift([r]), ShelfCluttered.lift([sh])}),
-        frozenset({ShelfClear.lift([sh])}),
-        frozenset({ShelfCluttered.lift([sh])}),
+    cluttered = [ShelfCluttered.lift([sh])]
+    clear_shelf = empty_hand_operator(
+        "ClearShelf", HandEmpty, [sh], cluttered, [ShelfClear.lift([sh])], cluttered
     )
     pick = pick_operator(
         "PickFromFloor",

@@ -62,7 +62,7 @@ from kinder_garden2d.kinematic2d.object_types import CIRCLE, CRV_ROBOT, LOBJECT
 from kinder_garden2d.kinematic2d.predicates import is_pressed
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.hand import pick_operator
+from kinder_gym.models.hand import pick_operator, tool_operator
 from kinder_gym.models.kinematic2d.crv import (
     ARM_JOINT,
     ARM_LENGTH,
@@ -82,7 +82,7 @@ from kinder_gym.models.kinematic2d.crv_script import (
     with_arm,
 )
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.operators import GroundOperator, LiftedOperator
+from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 #: Gap between the gripper's outer edge and the grasped face, as a fraction of the gripper width.
@@ -336,16 +336,12 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     HandEmpty, Holding = hand_predicates(env, LOBJECT)
     Pressed = Predicate("Pressed", (CIRCLE,), lambda s, o: is_pressed(s, o[0]))
 
-    r = Variable("?robot", CRV_ROBOT)
     h = Variable("?hook", LOBJECT)
     m = Variable("?movable", CIRCLE)
     t = Variable("?target", CIRCLE)
     grasp = pick_operator("GraspHook", HandEmpty, Holding, h, [])
-    push = LiftedOperator(
-        "PushButton",
-        (r, h, m, t),
-        frozenset({Holding.lift([r, h])}),
-        frozenset({Pressed.lift([m]), Pressed.lift([t])}),
+    push = tool_operator(
+        "PushButton", Holding, h, [m, t], [], [Pressed.lift([m]), Pressed.lift([t])]
     )
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:

@@ -47,7 +47,12 @@ from kinder_garden2d.kinematic2d.object_types import CIRCLE, CRV_ROBOT, RECTANGL
 from kinder_garden2d.kinematic2d.predicates import is_pressed
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.hand import pick_operator, place_operator
+from kinder_gym.models.hand import (
+    empty_hand_operator,
+    pick_operator,
+    place_operator,
+    tool_operator,
+)
 from kinder_gym.models.kinematic2d.crv import (
     ARM_JOINT,
     ARM_LENGTH,
@@ -63,7 +68,6 @@ from kinder_gym.models.kinematic2d.crv import (
     world_sampling_bounds,
 )
 from kinder_gym.motion_planning import FloatArray, params_seed
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 #: Gap (metres) between the gripper's outer edge and the stick face when grasping: the suction
@@ -86,22 +90,12 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     OnFloor = Predicate("OnFloor", (CIRCLE,), lambda s, o: s.get(o[0], "y") < table_y)
     OnTable = Predicate("OnTable", (CIRCLE,), lambda s, o: s.get(o[0], "y") >= table_y)
 
-    r = Variable("?robot", CRV_ROBOT)
     s = Variable("?stick", RECTANGLE)
     b = Variable("?button", CIRCLE)
-    robot_press = LiftedOperator(
-        "RobotPress",
-        (r, b),
-        frozenset({HandEmpty.lift([r]), OnFloor.lift([b])}),
-        frozenset({Pressed.lift([b])}),
-    )
+    pressed = [Pressed.lift([b])]
+    robot_press = empty_hand_operator("RobotPress", HandEmpty, [b], [OnFloor.lift([b])], pressed)
     pick = pick_operator("PickStick", HandEmpty, Grasped, s, [])
-    stick_press = LiftedOperator(
-        "StickPress",
-        (r, s, b),
-        frozenset({Grasped.lift([r, s]), OnTable.lift([b])}),
-        frozenset({Pressed.lift([b])}),
-    )
+    stick_press = tool_operator("StickPress", Grasped, s, [b], [OnTable.lift([b])], pressed)
     place = place_operator("PlaceStick", HandEmpty, Grasped, s, [])
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
