@@ -472,7 +472,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         ctx.cubes,
         200,
         step_limit=True,
-        monotone_predicates=frozenset({"InTarget"}),
+        monotone=[InTarget],
     )
 
 

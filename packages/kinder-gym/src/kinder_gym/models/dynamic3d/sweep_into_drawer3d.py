@@ -713,7 +713,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         types=[ROBOT_TYPE, DRAWER_TYPE, MOVABLE_TYPE],
         step_limit=True,
         operator_filter=keep,
-        monotone_predicates=frozenset({"InDrawer"}),
+        monotone=[InDrawer],
     )
 
 

@@ -295,15 +295,16 @@ def dynamic3d_model(
     horizon: int,
     types: Sequence[Type] = (ROBOT_TYPE, MOVABLE_TYPE),
     step_limit: bool = False,
+    monotone: Sequence[Predicate] = (),
     **options: Any,
 ) -> PlanningModel:
     """A Dynamic3D planning model over the object ``types`` (the robot's and the movables'), the
     ``skills`` (an ``(operator, controller class)`` pair is a skill whose controllers are given
-    ``ctx``); the ``goal`` atoms
-    whatever the episode's state; operators grounded over the robot and ``objects``; at most
-    ``horizon`` steps a skill. With ``step_limit`` the planner plans within the env's episode
-    step limit. ``options`` go to :class:`~kinder_gym.model.PlanningModel`
-    (``operator_filter``, ``monotone_predicates``)."""
+    ``ctx``) and the ``goal`` atoms, whatever the episode's state; operators are grounded over
+    the robot and ``objects``, a skill takes at most ``horizon`` steps. With ``step_limit`` the
+    planner plans within the env's episode step limit; ``monotone`` are the model's monotone
+    predicates (see :class:`~kinder_gym.model.PlanningModel`), and ``options`` (such as
+    ``operator_filter``) go to it."""
     goal_atoms = frozenset(goal)
     robot = ctx.robot
     listed = list(objects)
@@ -319,6 +320,7 @@ def dynamic3d_model(
         objects_fn=lambda state: [robot, *listed],
         max_skill_horizon=horizon,
         max_episode_steps=spec.max_episode_steps if step_limit and spec is not None else None,
+        monotone_predicates=frozenset(p.name for p in monotone),
         **options,
     )
 
