@@ -17,7 +17,6 @@ import time
 import numpy as np
 import torch
 
-from kinder_bench.baselines.bilevel_planning import model_for
 from kinder_bench.baselines.gsc.agent import (
     chain_steps,
     execute_chain,
@@ -27,6 +26,7 @@ from kinder_bench.baselines.gsc.agent import (
 )
 from kinder_bench.baselines.gsc.sampler import sample_chain
 from kinder_core import make_object_centric
+from kinder_gym.models import model_for
 
 
 def main() -> None:

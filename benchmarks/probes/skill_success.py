@@ -57,10 +57,10 @@ from typing import Any
 
 import numpy as np
 
-from kinder_bench.baselines.bilevel_planning import abstract_match
 from kinder_bench.evaluation.protocol import DEVELOPMENT_SEED
 from kinder_bench.evaluation.results import write_json
 from kinder_core import ObjectCentricState, make_object_centric
+from kinder_gym.model import abstract_match
 from kinder_gym.models import create_model
 from kinder_gym.skills import SkillFailure, execute_skill
 

@@ -20,7 +20,6 @@ import torch
 from typer.testing import CliRunner
 
 from kinder_bench.agents import make_agent
-from kinder_bench.baselines.bilevel_planning import model_for
 from kinder_bench.baselines.gsc.agent import (
     chain_steps,
     execute_chain,
@@ -40,6 +39,7 @@ from kinder_bench.demos.collection import CollectConfig, collect
 from kinder_bench.evaluation.runner import RunConfig, run_benchmark
 from kinder_bench.training.checkpoints import latest_checkpoint, read_checkpoint
 from kinder_core import make, make_object_centric
+from kinder_gym.models import model_for
 
 ENV = "kinder/StickButton2D-b1-v0"
 #: The session model's budget: BP demos, perturbed executions per demo skill, steps.

@@ -7,8 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from kinder_bench.baselines.bilevel_planning import abstract_match
 from kinder_core import make_object_centric
+from kinder_gym.model import abstract_match
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic2d.dyn_obstruction2d import footprint
 from kinder_gym.models.dynamic2d.dyn_pushpullhook2d import hook_above

@@ -120,7 +120,7 @@ def test_a_neighbour_closed_on_with_the_block_stays_to_be_moved() -> None:
         assert "(Holding robot cube_0)" in got and "(OnFloor cube_1)" in got
         # Both let down in the goal area: Place(cube_0) predicted cube_0 InArea; cube_1 InArea
         # too is accepted (InArea is monotone, its negation OnFloor may vanish with it).
-        from kinder_bench.baselines.bilevel_planning import abstract_match
+        from kinder_gym.model import abstract_match
 
         place = next(o for o in model.ground_operators(held) if o.name == "Place(robot, cube_0)")
         expected = place.apply(model.abstract(held))

@@ -147,3 +147,23 @@ class PlanningModel:
         return problem_to_pddl(
             self.name, problem_name, self.objects(state), self.abstract(state), self.goal(state)
         )
+
+
+def abstract_match(
+    model: PlanningModel, reached: frozenset[GroundAtom], expected: frozenset[GroundAtom]
+) -> bool:
+    """Whether a skill that was predicted to reach ``expected`` succeeded by reaching ``reached``:
+    an exact match, or extra atoms of the model's monotone predicates only (each of which may
+    take its declared negation's atom over the same objects with it). This is the acceptance
+    rule of every planner over these models (bilevel planning, GSC, the skill probes)."""
+    if reached == expected:
+        return True
+    monotone = model.monotone_predicates
+    extra = reached - expected
+    if not monotone or not all(a.predicate.name in monotone for a in extra):
+        return False
+    negations = model.monotone_negations
+    may_vanish = {
+        (negations[a.predicate.name], a.objects) for a in extra if a.predicate.name in negations
+    }
+    return all((a.predicate.name, a.objects) in may_vanish for a in expected - reached)

@@ -47,7 +47,6 @@ from __future__ import annotations
 import dataclasses
 import re
 import time
-import weakref
 from collections.abc import Sequence
 from typing import Any
 
@@ -64,8 +63,8 @@ from kinder_bench.baselines.bilevel_search import (
 )
 from kinder_core import ObjectCentricEnv, ObjectCentricState
 from kinder_gym.concepts import GroundAtom
-from kinder_gym.model import PlanningModel
-from kinder_gym.models import create_model
+from kinder_gym.model import PlanningModel, abstract_match
+from kinder_gym.models import model_for, use_model
 from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import SkillFailure, execute_skill
 
@@ -353,25 +352,6 @@ class BilevelPlanner:
         return False
 
 
-def abstract_match(
-    model: PlanningModel, reached: frozenset[GroundAtom], expected: frozenset[GroundAtom]
-) -> bool:
-    """Whether a skill that was predicted to reach ``expected`` succeeded by reaching ``reached``:
-    an exact match, or extra atoms of the model's monotone predicates only (each of which may
-    take its declared negation's atom over the same objects with it)."""
-    if reached == expected:
-        return True
-    monotone = model.monotone_predicates
-    extra = reached - expected
-    if not monotone or not all(a.predicate.name in monotone for a in extra):
-        return False
-    negations = model.monotone_negations
-    may_vanish = {
-        (negations[a.predicate.name], a.objects) for a in extra if a.predicate.name in negations
-    }
-    return all((a.predicate.name, a.objects) in may_vanish for a in expected - reached)
-
-
 def _drop_noops(
     ops: Sequence[GroundOperator], atoms: frozenset[GroundAtom]
 ) -> list[GroundOperator]:
@@ -386,23 +366,6 @@ def _drop_noops(
 
 
 _FAMILY_RE = re.compile(r"^(?:kinder/)?(?P<family>[A-Za-z0-9]+)(?:-.+?)?(?:-v\d+)?$")
-
-# One model per env instance: building one can be costly and the runner reuses envs.
-_MODELS: weakref.WeakKeyDictionary[ObjectCentricEnv, PlanningModel] = weakref.WeakKeyDictionary()
-
-
-def use_model(env: ObjectCentricEnv, model: PlanningModel) -> None:
-    """Plan on ``env`` with ``model`` instead of its family's model (e.g. a custom env)."""
-    _MODELS[env] = model
-
-
-def model_for(env: ObjectCentricEnv) -> PlanningModel:
-    """The (cached) planning model of an env."""
-    model = _MODELS.get(env)
-    if model is None:
-        model = create_model(env)
-        _MODELS[env] = model
-    return model
 
 
 class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):

@@ -78,14 +78,14 @@ DIFFUSION_REASON = (
 CPU_COMMANDS = {
     "bilevel_planning": "kinder bench run -a bilevel_planning -e <env> --seeds 0-4 --episodes 50",
     "mpc": "kinder bench run -a mpc -e <env> --arg replan_interval=<N> --seeds 0-4 --episodes 50",
-    "mbrl": "python benchmarks/experiments/learning.py mbrl --env <env> --epochs 1000 --seeds 0-4 --episodes 50 "
-    "--out runs/learning/mbrl",
+    "mbrl": "python benchmarks/experiments/learning.py mbrl --env <env> --epochs 1000 --seeds 0-4 "
+    "--episodes 50 --out runs/learning/mbrl",
     "gsc": "kinder train gsc --env <env> --out runs/gsc/ckpt/<env>; then kinder bench run -a gsc "
     "--arg checkpoint=runs/gsc/ckpt/<env> -e <env> --seeds 0-4 --episodes 50",
-    "ppo": "python benchmarks/experiments/rl_bench.py --algo ppo --env <env> --seeds 0-4 --steps 1000000 "
-    "--episodes 50 --out runs/rl",
-    "sac": "python benchmarks/experiments/rl_bench.py --algo sac --env <env> --seeds 0-4 --steps 1000000 "
-    "--episodes 50 --out runs/rl",
+    "ppo": "python benchmarks/experiments/rl_bench.py --algo ppo --env <env> --seeds 0-4 "
+    "--steps 1000000 --episodes 50 --out runs/rl",
+    "sac": "python benchmarks/experiments/rl_bench.py --algo sac --env <env> --seeds 0-4 "
+    "--steps 1000000 --episodes 50 --out runs/rl",
 }
 
 

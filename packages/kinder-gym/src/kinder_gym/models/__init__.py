@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib
 import re
+import weakref
 from collections.abc import Callable
 from typing import cast
 
@@ -89,4 +90,23 @@ def create_model(env: ObjectCentricEnv, family: str | None = None) -> PlanningMo
     return factory(env)
 
 
-__all__ = ["MODELS", "create_model", "family_of", "register_model"]
+# One model per env instance: building one can be costly and runners reuse envs.
+_MODELS: weakref.WeakKeyDictionary[ObjectCentricEnv, PlanningModel] = weakref.WeakKeyDictionary()
+
+
+def use_model(env: ObjectCentricEnv, model: PlanningModel) -> None:
+    """Plan on ``env`` with ``model`` instead of its family's model (e.g. a custom env)."""
+    _MODELS[env] = model
+
+
+def model_for(env: ObjectCentricEnv) -> PlanningModel:
+    """The planning model of ``env``, built once per env instance (:func:`create_model`) unless
+    :func:`use_model` gave it one."""
+    model = _MODELS.get(env)
+    if model is None:
+        model = create_model(env)
+        _MODELS[env] = model
+    return model
+
+
+__all__ = ["MODELS", "create_model", "family_of", "model_for", "register_model", "use_model"]

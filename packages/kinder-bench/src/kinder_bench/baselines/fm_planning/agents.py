@@ -50,7 +50,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from kinder_bench.agents.base import Agent, AgentFailure
-from kinder_bench.baselines.bilevel_planning import model_for
 from kinder_bench.baselines.fm_planning.client import CACHE_MODES, ChatClient, ChatError
 from kinder_bench.baselines.fm_planning.parser import parse_plan
 from kinder_bench.baselines.fm_planning.prompts import (
@@ -63,6 +62,7 @@ from kinder_bench.baselines.fm_planning.prompts import (
     user_message,
 )
 from kinder_core import ObjectCentricState
+from kinder_gym.models import model_for
 from kinder_gym.skill_env import InvalidSkillCall, SkillCall, SkillExecution, ground_call
 from kinder_gym.skills import SkillFailure
 

@@ -42,14 +42,14 @@ import torch
 from numpy.typing import NDArray
 
 from kinder_bench.agents.base import Agent, AgentFailure, needs_checkpoint
-from kinder_bench.baselines.bilevel_planning import abstract_match, model_for
 from kinder_bench.baselines.bilevel_search import HFF, SEARCH_ALGORITHMS, abstract_plans
 from kinder_bench.baselines.gsc.model import MODEL_FILE, GSCModel
 from kinder_bench.baselines.gsc.sampler import ChainSamples, ChainStep, sample_chain
 from kinder_bench.training.checkpoints import find_checkpoint
 from kinder_core import ObjectCentricState
 from kinder_gym.concepts import GroundAtom
-from kinder_gym.model import PlanningModel
+from kinder_gym.model import PlanningModel, abstract_match
+from kinder_gym.models import model_for
 from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import Controller, SkillFailure, execute_skill
 

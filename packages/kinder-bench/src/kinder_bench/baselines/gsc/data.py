@@ -32,10 +32,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from kinder_bench.baselines.bilevel_planning import abstract_match, model_for
 from kinder_core import Object, ObjectCentricEnv
 from kinder_gym.demos.record import EpisodeRecord
-from kinder_gym.model import PlanningModel
+from kinder_gym.model import PlanningModel, abstract_match
+from kinder_gym.models import model_for
 from kinder_gym.skills import GroundSkill, SkillFailure, execute_skill
 
 FloatArray = NDArray[np.float64]

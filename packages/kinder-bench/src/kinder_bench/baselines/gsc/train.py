@@ -40,7 +40,6 @@ import torch
 import tqdm
 from numpy.typing import NDArray
 
-from kinder_bench.baselines.bilevel_planning import model_for
 from kinder_bench.baselines.gsc.config import GSCTrainConfig
 from kinder_bench.baselines.gsc.data import (
     SkillTransition,
@@ -67,6 +66,7 @@ from kinder_bench.training.csvlog import CsvLog
 from kinder_core import ObjectCentricEnv, make_object_centric
 from kinder_gym.demos.record import EpisodeRecord
 from kinder_gym.demos.store import load_record
+from kinder_gym.models import model_for
 
 FloatArray = NDArray[np.float64]
 
