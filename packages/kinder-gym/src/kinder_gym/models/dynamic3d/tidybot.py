@@ -16,12 +16,14 @@ joints). Imports kinder_garden3d (the ``[3d]`` extra).
 
 This is the mobile manipulator's base module, which every Dynamic3D planning model imports (never
 a sibling model): the robot's constants (gripper closure, grasp pitch, ready pose, chassis size),
-base-path geometry (:func:`segment_point_distance`, :func:`segment_rect_distance`), the drive
+base-path geometry (:func:`segment_point_distance`, :func:`segment_rect_distance`,
+:func:`chassis_clear_of_box`, :func:`clear_of_points`, :func:`floor_points`), the drive
 (:meth:`Dynamic3DController.drive`), the context every controller gets
 (:class:`Dynamic3DContext`), the side grasp of an object on the floor (:func:`face_heading`,
 :func:`grasp_and_lift`, :class:`FloorPickController`), the top-down moves with the base fixed
-(:class:`TopDownController`), the hand's predicates (:func:`hand_predicates`) and the model
-itself (:func:`dynamic3d_model`).
+(:class:`TopDownController`), the task's goal placements (:func:`placement_goal`,
+:func:`region_spot`), the hand's predicates (:func:`hand_predicates`) and the model itself
+(:func:`dynamic3d_model`).
 """
 
 from __future__ import annotations
