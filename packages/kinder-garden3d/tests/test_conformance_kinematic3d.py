@@ -52,6 +52,7 @@ SEED_FOR_SEED = {
     *(f"kinder/Transport3D-o{n}-v0" for n in (1, 2)),
     *(f"kinder/KinematicShelf3D-o{n}-v0" for n in (1, 2, 3, 5, 10)),
     *(f"kinder/KinematicCylinderShelf3D-o{n}-v0" for n in (1, 2, 3)),
+    *(f"kinder/PrplLab3D-o{n}-v0" for n in (1, 2)),
 }
 #: Ids whose resets differ from upstream's on purpose, and the features that differ (Packing3D:
 #: upstream's parts start 1 cm above the table, a bug there; ours rest on it).
@@ -68,6 +69,7 @@ GEOMETRY_DIVERGENCES: dict[tuple[str, str], tuple[int, str]] = {
     ("BaseMotion3D", "random-0"): (0, _FINGER_SHOULDER),
     **{(f"Table3D-o{n}", "random-0"): (0, _FINGER_SHOULDER) for n in (1, 2, 3)},
     **{(f"Table3D-o{n}", "random-1"): (2, _KNUCKLES) for n in (1, 2, 3)},
+    **{(f"PrplLab3D-o{n}", "random-0"): (0, _FINGER_SHOULDER) for n in (1, 2)},
     **{(f"Obstruction3D-o{n}", "random-1"): (13, _ARM_BASE) for n in range(5)},
     **{(f"Obstruction3D-o{n}", "pick-target_block-s1"): (5, _PAD_BLOCK) for n in range(5)},
     **{(f"Packing3D-p{n}", "random-1"): (13, _ARM_BASE) for n in (1, 2, 3)},

@@ -28,6 +28,7 @@ EXPECTED_BOX_SIZES = {
     **{f"kinder/Transport3D-o{n}-v0": 43 + 12 * n for n in (1, 2)},
     **{f"kinder/KinematicShelf3D-o{n}-v0": 26 + 12 * n for n in (1, 2, 3, 5, 10)},
     **{f"kinder/KinematicCylinderShelf3D-o{n}-v0": 26 + 12 * n for n in (1, 2, 3)},
+    **{f"kinder/PrplLab3D-o{n}-v0": 26 + 12 * n for n in (1, 2)},
 }
 
 
@@ -67,6 +68,7 @@ def test_action_magnitudes_follow_the_spec():
         "kinder/Transport3D-o1-v0": 0.2,
         "kinder/KinematicShelf3D-o1-v0": 0.2,
         "kinder/KinematicCylinderShelf3D-o1-v0": 0.2,
+        "kinder/PrplLab3D-o1-v0": 0.4,
     }
     for env_id, mag in mags.items():
         env = kinder_core.make_object_centric(env_id)
@@ -106,7 +108,7 @@ def test_importing_the_package_loads_no_simulator():
         "print(len(kinder_core.list_envs('Kinematic3D')))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "22"
+    assert out.stdout.strip() == "24"
 
 
 def test_each_env_has_a_private_client_and_close_releases_it():
@@ -166,8 +168,13 @@ def test_gymnasium_make_gives_the_box_view():
 
 
 @pytest.mark.parametrize(
-    "env_id", ["kinder/KinematicShelf3D-o2-v0", "kinder/KinematicCylinderShelf3D-o2-v0"]
+    "env_id",
+    [
+        "kinder/KinematicShelf3D-o2-v0",
+        "kinder/KinematicCylinderShelf3D-o2-v0",
+        "kinder/PrplLab3D-o2-v0",
+    ],
 )
-def test_shelf_families_draw_vector_envs_and_processes_alike(env_id):
+def test_upstream_extra_families_draw_vector_envs_and_processes_alike(env_id):
     check_vector_consistency(env_id)
     check_cross_process_determinism(env_id)

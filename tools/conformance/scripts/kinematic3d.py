@@ -6,9 +6,10 @@ contact, grasp, carry and place:
 
 * ``to-target`` (BaseMotion3D): drive the base straight at the target.
 * ``pick-<obj>`` (Table3D, Obstruction3D, Transport3D, KinematicShelf3D,
-  KinematicCylinderShelf3D): drive the base (Transport3D and the shelf families: turn, then
-  translate to stand 0.6 m from the object on its side away from the box or the shelf) so the
-  object is in front of the arm, move the arm above the object with the tool pointing down,
+  KinematicCylinderShelf3D, PrplLab3D): drive the base (Transport3D, the shelf families and
+  PrplLab3D: turn, then translate to stand 0.6 m from the object on its side away from the box,
+  the shelf or the lab) so the object is in front of the arm, move the arm above the object
+  with the tool pointing down,
   descend until the tool frame is 3 cm above the object's centre, close, lift 15 cm, carry
   (turn the base by 0.3 rad), lower back until the object is about 6 mm above where it started,
   and open.
@@ -211,6 +212,8 @@ def scripts(env_id: str, feature_names: list[str]) -> dict[str, Policy]:
         return {"pick-cube0": _pick("cube0", 0.0, 0.2, avoid="box0")}
     if "KinematicShelf3D" in env_id:
         return {"pick-cube0": _pick("cube0", 0.0, 0.2, avoid="shelf")}
+    if "PrplLab3D" in env_id:
+        return {"pick-cube0": _pick("cube0", 0.0, 0.4, avoid="prpl_lab")}
     if "KinematicCylinderShelf3D" in env_id:
         # From above the top of the 20 cm cylinder0 (the recording exercises the collision
         # and grasp checks; a side grasp needs a planner).

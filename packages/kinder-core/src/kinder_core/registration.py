@@ -44,7 +44,7 @@ def _families(category: str, module: str, dist: str, names: str) -> dict[str, Fa
 
 
 # The static table of the KinDERGarden families: the paper's 25, then the upstream 0.2.5
-# families the paper does not list (KinematicShelf3D, KinematicCylinderShelf3D).
+# families the paper does not list (KinematicShelf3D, KinematicCylinderShelf3D, PrplLab3D).
 FAMILY_SOURCES: dict[str, FamilySource] = {
     **_families(
         "Kinematic2D",
@@ -64,7 +64,7 @@ FAMILY_SOURCES: dict[str, FamilySource] = {
         "kinder_garden3d",
         "kinder-garden3d",
         "BaseMotion3D Obstruction3D Packing3D Table3D Transport3D KinematicShelf3D "
-        "KinematicCylinderShelf3D",
+        "KinematicCylinderShelf3D PrplLab3D",
     ),
     **_families(
         "Dynamic3D",

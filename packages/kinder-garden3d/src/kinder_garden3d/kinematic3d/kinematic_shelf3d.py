@@ -167,7 +167,8 @@ class KinematicShelf3DEnv(Kinematic3DEnv):
     ## Episode End
     Terminates when the gripper is open (finger state ≤ 0.01) and every block's centre is
     above z = 0.224 (0.05 below the second board's underside, i.e. on the shelf above the
-    bottom board). The registered ids truncate after 500 steps.
+    bottom board). The registered ids truncate after 500 steps (o5: 1000, o10: 2000, 200 a
+    block: BP's plans take about 115 steps a block).
 
     ## Arguments
     `num_cubes` (default 2), `config` (a `KinematicShelf3DConfig`), `render_mode`.
@@ -179,7 +180,8 @@ class KinematicShelf3DEnv(Kinematic3DEnv):
     Upstream's docs say the gripper must be closed at the goal; its code (and this env)
     requires finger state ≤ 0.01, which is the open gripper. Colours replace upstream's book and
     wood textures; the floor is drawn but is not a body (as upstream, which has none;
-    `floor_collides` adds one). Upstream registers no step limit; these ids use 500.
+    `floor_collides` adds one). Upstream registers no step limit; these ids use 500 (o5: 1000,
+    o10: 2000).
     Shared with every Kinematic3D env here: the robot is a primitive-shape model of the
     TidyBot++/Gen3/2F-85 (see `kinder_garden3d/robot/README.md`), not upstream's meshes; there
     is no textured background (upstream `realistic_bg`); the overview camera is placed to see
