@@ -90,7 +90,48 @@ class BlockPickController(PickController):
         return self._sequence(state, base_goal, pos, top_down_quat(ee_yaw), -1.0, salt=1)
 
 
-class ShelfPlaceController(ReachController):
+class ReleaseController(ReachController):
+    """Carry the held object to a release pose and open: retract, drive, reach
+    ``PLACE_APPROACH`` above the pose, descend, open, lift (the shared reach sequence with a
+    shorter approach). Objects: ``(robot, object)``."""
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.objects[1], "grasp_active") > 0.5
+
+    def _place_sequence(
+        self,
+        state: ObjectCentricState,
+        base_goal: np.ndarray,
+        ee_pos: np.ndarray,
+        ee_quat: np.ndarray,
+    ) -> list[ConfigWaypoint]:
+        """Retract, drive, reach ``PLACE_APPROACH`` above the release pose, descend, open, lift
+        (the shared reach sequence with a shorter approach)."""
+        checker = ConfigChecker(self.context, state)
+        q = np.asarray(state[self.robot][:10], dtype=np.float64)
+        seed = params_seed(self.params, 2)
+        wps: list[ConfigWaypoint] = []
+        if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
+            path = arm_path(checker, q, HOME, seed)
+            wps += [self._wp(p) for p in path]
+            q = path[-1]
+        if np.max(np.abs(config_delta(q[:3], base_goal))) > 1e-6:
+            path = base_path(checker, q, base_goal, self.planning_bounds(state), seed)
+            wps += [self._wp(p) for p in path]
+            q = path[-1]
+        above = solve_ik(ee_pos + np.array([0.0, 0.0, PLACE_APPROACH]), ee_quat, q[:3], HOME)
+        at = solve_ik(ee_pos, ee_quat, q[:3], above)
+        q_above = np.concatenate([q[:3], above])
+        q_at = np.concatenate([q[:3], at])
+        wps += [self._wp(p) for p in arm_path(checker, q, above, seed + 1)]
+        if not segment_valid(q_above, q_at, checker, np.full(10, 0.05)):
+            raise SkillFailure(f"{type(self).__name__}: the final approach collides")
+        wps.append(self._wp(q_at, 1.0))
+        wps.append(self._wp(q_above))
+        return wps
+
+
+class ShelfPlaceController(ReleaseController):
     """Place the held block on the shelf's top board. Objects: ``(robot, block)``; the shelf is
     the env's."""
 
@@ -100,9 +141,6 @@ class ShelfPlaceController(ReachController):
         "(shrunk by the block's footprint radius and 2 cm), 3 mm above it; the base stands "
         "0.38 + 0.12·dist metres away, in front of the shelf (side < 1/2) or behind it."
     )
-
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.objects[1], "grasp_active") > 0.5
 
     def _config(self) -> KinematicShelf3DConfig:
         cfg = self.context.config
@@ -138,38 +176,6 @@ class ShelfPlaceController(ReachController):
         ee_p, ee_q = tool_to_pinch(tool_p, tool_q)
         base_goal = self._standoff(state, np.array([px, py]), dist, angle)
         return self._place_sequence(state, base_goal, ee_p, ee_q)
-
-    def _place_sequence(
-        self,
-        state: ObjectCentricState,
-        base_goal: np.ndarray,
-        ee_pos: np.ndarray,
-        ee_quat: np.ndarray,
-    ) -> list[ConfigWaypoint]:
-        """Retract, drive, reach ``PLACE_APPROACH`` above the release pose, descend, open, lift
-        (the shared reach sequence with a shorter approach)."""
-        checker = ConfigChecker(self.context, state)
-        q = np.asarray(state[self.robot][:10], dtype=np.float64)
-        seed = params_seed(self.params, 2)
-        wps: list[ConfigWaypoint] = []
-        if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
-            path = arm_path(checker, q, HOME, seed)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
-        if np.max(np.abs(config_delta(q[:3], base_goal))) > 1e-6:
-            path = base_path(checker, q, base_goal, self.planning_bounds(state), seed)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
-        above = solve_ik(ee_pos + np.array([0.0, 0.0, PLACE_APPROACH]), ee_quat, q[:3], HOME)
-        at = solve_ik(ee_pos, ee_quat, q[:3], above)
-        q_above = np.concatenate([q[:3], above])
-        q_at = np.concatenate([q[:3], at])
-        wps += [self._wp(p) for p in arm_path(checker, q, above, seed + 1)]
-        if not segment_valid(q_above, q_at, checker, np.full(10, 0.05)):
-            raise SkillFailure(f"{type(self).__name__}: the final approach collides")
-        wps.append(self._wp(q_at, 1.0))
-        wps.append(self._wp(q_above))
-        return wps
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
@@ -218,4 +224,9 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     )
 
 
-__all__: Sequence[str] = ["BlockPickController", "ShelfPlaceController", "create_model"]
+__all__: Sequence[str] = [
+    "BlockPickController",
+    "ReleaseController",
+    "ShelfPlaceController",
+    "create_model",
+]

@@ -1,0 +1,133 @@
+"""The PrplLab3D planning model: pick every cube off the lab's floor and let go of it at
+countertop height.
+
+Upstream has no planning model for this family. Its env lets a held cube go anywhere (the lab
+counts as every object's support) and its goal only asks every cube to be released no lower than
+5 cm below the countertop's top, so a cube need not be put on the counter. Concepts:
+
+* ``HandEmpty(robot)`` / ``Holding(robot, cube)``.
+* ``OnFloor(cube)``: not held, centre below the goal height.
+* ``Raised(cube)``: not held, centre at or above it (the env's goal test for one cube).
+
+Operators: ``Pick(?robot, ?cube)`` (pre HandEmpty, OnFloor; add Holding; delete HandEmpty,
+OnFloor) and ``Raise(?robot, ?cube)`` (pre Holding; add HandEmpty, Raised; delete Holding).
+Goal: every cube ``Raised`` and ``HandEmpty``.
+
+Skills: the pick is KinematicShelf3D's
+(:class:`~kinder_gym.models.kinematic3d.kinematic_shelf3d.BlockPickController`); the raise
+(:class:`RaiseController`) lifts the cube, where the robot stands, to a sampled point in front of
+the base at a sampled height above the goal height and opens. Imports kinder_garden3d (the
+``[3d]`` extra).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from gymnasium import spaces
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.kinematic3d.geometry import quat_to_matrix
+from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
+from kinder_garden3d.kinematic3d.prpl_lab3d import PrplLab3DConfig
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator, place_operator
+from kinder_gym.models.kinematic3d.kinematic_shelf3d import (
+    BlockPickController,
+    ReleaseController,
+)
+from kinder_gym.models.kinematic3d.tidybot import (
+    ConfigWaypoint,
+    hand_atoms,
+    hand_predicates,
+    tool_to_pinch,
+    top_down_quat,
+)
+from kinder_gym.operators import GroundOperator
+from kinder_gym.skills import Skill
+
+
+class RaiseController(ReleaseController):
+    """Lift the held cube where the robot stands and open. Objects: ``(robot, cube)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
+    params_doc = (
+        "(reach, side, height): the cube's centre goes 0.35 + 0.2·reach metres from the base "
+        "centre, (side − 0.5)·π/2 radians off the base's heading, 2 + 6·height cm above the goal "
+        "height."
+    )
+
+    def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
+        robot, _obj = self.objects
+        reach, side, height = (float(p) for p in self.params)
+        cfg = self.context.config
+        if not isinstance(cfg, PrplLab3DConfig):
+            raise TypeError(f"{type(self).__name__} needs a PrplLab3D env, got {cfg!r}")
+        x, y, yaw = (float(v) for v in state[robot][:3])
+        heading = yaw + (side - 0.5) * math.pi / 2
+        dist = 0.35 + 0.2 * reach
+        goal_z = cfg.counter_top_z - cfg.goal_below_counter
+        spot = np.array(
+            [
+                x + dist * math.cos(heading),
+                y + dist * math.sin(heading),
+                goal_z + 0.02 + 0.06 * height,
+            ]
+        )
+        tf_p = np.asarray(state[robot][12:15], dtype=np.float64)
+        tool_q = top_down_quat(heading)
+        tool_p = spot - quat_to_matrix(tool_q) @ tf_p
+        ee_p, ee_q = tool_to_pinch(tool_p, tool_q)
+        return self._place_sequence(state, np.array([x, y, yaw]), ee_p, ee_q)
+
+
+def create_model(env: ObjectCentricEnv) -> PlanningModel:
+    """The PrplLab3D planning model (any number of cubes)."""
+    robot_obj: Object = env.robot  # type: ignore[attr-defined]
+    cubes: list[Object] = list(env.cubes)  # type: ignore[attr-defined]
+    cfg = env.config  # type: ignore[attr-defined]
+    goal_z = cfg.counter_top_z - cfg.goal_below_counter
+
+    HandEmpty, Holding = hand_predicates()
+    OnFloor = Predicate("OnFloor", (CUBOID_TYPE,))
+    Raised = Predicate("Raised", (CUBOID_TYPE,))
+
+    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        atoms = hand_atoms(state, robot_obj, HandEmpty)
+        for c in cubes:
+            if state.get(c, "grasp_active") > 0.5:
+                atoms.add(Holding.ground([robot_obj, c]))
+            elif state.get(c, "pose_z") >= goal_z:
+                atoms.add(Raised.ground([c]))
+            else:
+                atoms.add(OnFloor.ground([c]))
+        return frozenset(atoms)
+
+    c = Variable("?cube", CUBOID_TYPE)
+    pick = pick_operator("Pick", HandEmpty, Holding, c, [OnFloor.lift([c])])
+    raise_ = place_operator("Raise", HandEmpty, Holding, c, [Raised.lift([c])])
+
+    def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
+        return op.objects[1] in cubes
+
+    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        return frozenset({HandEmpty.ground([robot_obj])} | {Raised.ground([b]) for b in cubes})
+
+    return PlanningModel(
+        name="prpl_lab3d",
+        env=env,
+        types=(ROBOT_TYPE, CUBOID_TYPE),
+        predicates=(HandEmpty, Holding, OnFloor, Raised),
+        skills=(Skill(pick, BlockPickController, env), Skill(raise_, RaiseController, env)),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        max_skill_horizon=300,
+        operator_filter=keep,
+        objects_fn=lambda s: [robot_obj, *cubes],
+    )
+
+
+__all__: Sequence[str] = ["RaiseController", "create_model"]
