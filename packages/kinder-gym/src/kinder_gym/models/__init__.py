@@ -47,6 +47,9 @@ MODELS: dict[str, str] = {
     "Table3D": "kinder_gym.models.kinematic3d.table3d:create_model",
     "KinematicShelf3D": "kinder_gym.models.kinematic3d.kinematic_shelf3d:create_model",
     "PrplLab3D": "kinder_gym.models.kinematic3d.prpl_lab3d:create_model",
+    "KinematicCylinderShelf3D": (
+        "kinder_gym.models.kinematic3d.kinematic_cylinder_shelf3d:create_model"
+    ),
 }
 
 _ID_RE = re.compile(r"^kinder/(?P<family>[A-Za-z0-9]+)(?:-.+?)?-v\d+$")

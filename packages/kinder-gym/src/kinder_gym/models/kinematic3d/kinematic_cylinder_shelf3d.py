@@ -1,0 +1,264 @@
+"""The KinematicCylinderShelf3D planning model: side-grasp every cylinder off the floor and stand
+it on a shelf board.
+
+Upstream has no planning model for this family. Concepts (over the cylinders):
+
+* ``HandEmpty(robot)`` / ``Holding(robot, cylinder)``.
+* ``OnFloor(cylinder)``: not held and not standing on the shelf.
+* ``OnShelf(cylinder)``: not held, standing on a board inside the shelf's footprint (the env's
+  goal test for one cylinder).
+
+Operators: ``Pick(?robot, ?cylinder)`` (pre HandEmpty, OnFloor; add Holding; delete HandEmpty,
+OnFloor) and ``Place(?robot, ?cylinder)`` (pre Holding; add HandEmpty, OnShelf; delete Holding).
+Goal: every cylinder ``OnShelf`` and ``HandEmpty``.
+
+Skills, both with the gripper horizontal (a side grasp: the approach axis is level and the
+fingers close horizontally, so any approach angle around a cylinder works):
+
+* Pick (:class:`SidePickController`): retract, drive to a standoff facing the cylinder, reach a
+  point ``SIDE_APPROACH`` short of the grasp along the approach, move in, close, lift straight up.
+* Place (:class:`SidePlaceController`): retract (carrying the cylinder upright), drive to a
+  standoff in front of the shelf, reach ``SIDE_APPROACH`` in front of the release pose, move in
+  until the cylinder stands 3 mm above a sampled spot on a sampled board, open, back out.
+
+Imports kinder_garden3d (the ``[3d]`` extra).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from gymnasium import spaces
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.kinematic3d.geometry import compose, quat_to_matrix
+from kinder_garden3d.kinematic3d.kinematic_cylinder_shelf3d import KinematicCylinderShelf3DConfig
+from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator, place_operator
+from kinder_gym.models.kinematic3d.tidybot import (
+    HOME,
+    PLANNING_MARGIN,
+    ConfigChecker,
+    ConfigWaypoint,
+    ReachController,
+    arm_path,
+    base_path,
+    config_delta,
+    hand_atoms,
+    hand_predicates,
+    solve_ik,
+    tool_to_pinch,
+)
+from kinder_gym.motion_planning import FloatArray, params_seed, segment_valid
+from kinder_gym.operators import GroundOperator
+from kinder_gym.skills import Skill, SkillFailure
+
+#: How far short of the grasp (or release) pose the gripper stops before moving in (m).
+SIDE_APPROACH = 0.06
+#: How far a picked cylinder is lifted straight up (m).
+LIFT = 0.1
+#: The gripper frame to the tool frame: a quarter turn about the approach axis (x, y, z, w), the
+#: inverse of the tool-to-gripper turn that :func:`tool_to_pinch` applies.
+_GRIPPER_TO_TOOL = np.array([0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)])
+
+
+def side_quat(heading: float) -> FloatArray:
+    """The pinch orientation (x, y, z, w) with the approach axis level along ``heading`` and the
+    fingers closing horizontally: a quarter turn about y, then ``heading`` about world z."""
+    c, s = math.cos(heading / 2), math.sin(heading / 2)
+    h = math.sqrt(0.5)
+    # Rz(heading) ⊗ Ry(π/2): (0, 0, s, c) ⊗ (0, h, 0, h).
+    return np.array([-s * h, c * h, s * h, c * h])
+
+
+def _config(controller: ReachController) -> KinematicCylinderShelf3DConfig:
+    cfg = controller.context.config
+    if not isinstance(cfg, KinematicCylinderShelf3DConfig):
+        raise TypeError(
+            f"{type(controller).__name__} needs a KinematicCylinderShelf3D env, got {cfg!r}"
+        )
+    return cfg
+
+
+class _SideController(ReachController):
+    """Retract, drive, reach in front of a pose along a level approach, move in, act, back out
+    (or lift). Objects: ``(robot, cylinder)``."""
+
+    def planning_bounds(self, state: ObjectCentricState) -> tuple[float, float, float, float]:
+        """The robot, the cylinders and the shelf, grown by ``PLANNING_MARGIN``."""
+        x0, x1, y0, y1 = super().planning_bounds(state)
+        sx, sy, _ = _config(self).shelf_pos
+        m = PLANNING_MARGIN
+        return min(x0, sx - m), max(x1, sx + m), min(y0, sy - m), max(y1, sy + m)
+
+    def _side_sequence(
+        self,
+        state: ObjectCentricState,
+        base_goal: FloatArray,
+        pinch_p: FloatArray,
+        pinch_q: FloatArray,
+        heading: float,
+        gripper: float,
+        salt: int,
+    ) -> list[ConfigWaypoint]:
+        checker = ConfigChecker(self.context, state)
+        q = np.asarray(state[self.robot][:10], dtype=np.float64)
+        seed = params_seed(self.params, salt)
+        wps: list[ConfigWaypoint] = []
+        if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
+            path = arm_path(checker, q, HOME, seed)
+            wps += [self._wp(p) for p in path]
+            q = path[-1]
+        if np.max(np.abs(config_delta(q[:3], base_goal))) > 1e-6:
+            path = base_path(checker, q, base_goal, self.planning_bounds(state), seed)
+            wps += [self._wp(p) for p in path]
+            q = path[-1]
+        back = np.array([math.cos(heading), math.sin(heading), 0.0]) * SIDE_APPROACH
+        before = solve_ik(pinch_p - back, pinch_q, q[:3], HOME)
+        at = solve_ik(pinch_p, pinch_q, q[:3], before)
+        q_before = np.concatenate([q[:3], before])
+        q_at = np.concatenate([q[:3], at])
+        wps += [self._wp(p) for p in arm_path(checker, q, before, seed + 1)]
+        if not segment_valid(q_before, q_at, checker, np.full(10, 0.05)):
+            raise SkillFailure(f"{type(self).__name__}: the final approach collides")
+        wps.append(self._wp(q_at, gripper))
+        if gripper < 0:  # a pick lifts the cylinder straight up
+            up = solve_ik(pinch_p + np.array([0.0, 0.0, LIFT]), pinch_q, q[:3], at)
+            wps.append(self._wp(np.concatenate([q[:3], up])))
+        else:  # a place backs out of the shelf
+            wps.append(self._wp(q_before))
+        return wps
+
+
+class SidePickController(_SideController):
+    """Side-grasp a cylinder standing on the floor. Objects: ``(robot, cylinder)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
+    params_doc = (
+        "(dist, angle, height): the base stands 0.7 + 0.15·dist metres from the cylinder's "
+        "axis, approaching from (angle − 0.5)·π/2 radians off the line from the robot to the "
+        "cylinder; the fingers close 0.3 + 0.4·height of the way up the cylinder."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.robot, "grasp_active") < 0.5
+
+    def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
+        robot, obj = self.objects
+        dist_p, angle_p, height_p = (float(p) for p in self.params)
+        f = state[obj]
+        base = np.asarray(state[robot][:2], dtype=np.float64)
+        heading = math.atan2(f[1] - base[1], f[0] - base[0]) + (angle_p - 0.5) * math.pi / 2
+        bottom = float(f[2] - f[11])
+        grasp = np.array([f[0], f[1], bottom + (0.3 + 0.4 * height_p) * 2 * f[11]])
+        dist = 0.7 + 0.15 * dist_p
+        base_goal = self._standoff(state, grasp, dist, heading)
+        return self._side_sequence(
+            state, base_goal, grasp, side_quat(heading), heading, -1.0, salt=1
+        )
+
+
+class SidePlaceController(_SideController):
+    """Stand the held cylinder on a shelf board. Objects: ``(robot, cylinder)``."""
+
+    params_space = spaces.Box(0.0, 1.0, (4,), dtype=np.float64)
+    params_doc = (
+        "(u, v, dist, board): the cylinder stands at fractions (u, v) of the board (shrunk by "
+        "its radius and 2 cm), 3 mm above it, on the board picked by ``board`` among those whose "
+        "clear height fits it; the base stands 0.7 + 0.15·dist metres in front of the spot."
+    )
+
+    def initiable(self, state: ObjectCentricState) -> bool:
+        return state.get(self.objects[1], "grasp_active") > 0.5
+
+    def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
+        robot, obj = self.objects
+        u, v, dist_p, board_p = (float(p) for p in self.params)
+        cfg = _config(self)
+        shelf = cfg.shelf
+        sx, sy, sz = cfg.shelf_pos
+        f = state[obj]
+        radius, half_h = float(f[9]), float(f[11])
+        tops = shelf.surface_heights(sz)
+        # Boards with room above for the cylinder and the gripper (the top board has no limit).
+        fits = [
+            k
+            for k, top in enumerate(tops)
+            if k + 1 == len(tops) or tops[k + 1] - shelf.board_thickness - top > 2 * half_h + 0.02
+        ]
+        top = tops[fits[min(len(fits) - 1, int(board_p * len(fits)))]]
+        hx = max(0.0, shelf.width / 2 - radius - 0.02)
+        hy = max(0.0, shelf.depth / 2 - radius - 0.02)
+        spot = np.array([sx - hx + 2 * u * hx, sy - hy + 2 * v * hy, top + half_h + 0.003])
+        heading = math.pi / 2  # from the front of the shelf (−y), facing +y
+        pinch_q = side_quat(heading)
+        tool_q = compose(np.zeros(3), pinch_q, np.zeros(3), _GRIPPER_TO_TOOL)[1]
+        tf_p = np.asarray(state[robot][12:15], dtype=np.float64)
+        tool_p = spot - quat_to_matrix(tool_q) @ tf_p
+        pinch_p, pinch_q = tool_to_pinch(tool_p, tool_q)
+        base_goal = self._standoff(state, pinch_p, 0.7 + 0.15 * dist_p, heading)
+        return self._side_sequence(state, base_goal, pinch_p, pinch_q, heading, 1.0, salt=2)
+
+
+def create_model(env: ObjectCentricEnv) -> PlanningModel:
+    """The KinematicCylinderShelf3D planning model (any number of cylinders)."""
+    robot_obj: Object = env.robot  # type: ignore[attr-defined]
+    cylinders: list[Object] = list(env.cylinders)  # type: ignore[attr-defined]
+
+    HandEmpty, Holding = hand_predicates()
+    OnFloor = Predicate("OnFloor", (CUBOID_TYPE,))
+    OnShelf = Predicate("OnShelf", (CUBOID_TYPE,))
+
+    cfg = env.config  # type: ignore[attr-defined]
+    sx, sy, sz = cfg.shelf_pos
+    tops = cfg.shelf.surface_heights(sz)
+
+    def on_shelf(state: ObjectCentricState, c: Object) -> bool:
+        """The env's goal test for one cylinder: inside the footprint, at its resting height
+        on some board (within the env's tolerance)."""
+        x, y, z = (float(v) for v in state[c][:3])
+        if abs(x - sx) > cfg.shelf.width / 2 or abs(y - sy) > cfg.shelf.depth / 2:
+            return False
+        rest = float(state[c][11])
+        return any(abs(z - (top + rest)) <= cfg.on_shelf_z_tolerance for top in tops)
+
+    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        atoms = hand_atoms(state, robot_obj, HandEmpty)
+        for c in cylinders:
+            if state.get(c, "grasp_active") > 0.5:
+                atoms.add(Holding.ground([robot_obj, c]))
+            elif on_shelf(state, c):
+                atoms.add(OnShelf.ground([c]))
+            else:
+                atoms.add(OnFloor.ground([c]))
+        return frozenset(atoms)
+
+    c = Variable("?cylinder", CUBOID_TYPE)
+    pick = pick_operator("Pick", HandEmpty, Holding, c, [OnFloor.lift([c])])
+    place = place_operator("Place", HandEmpty, Holding, c, [OnShelf.lift([c])])
+
+    def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
+        return op.objects[1] in cylinders
+
+    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        return frozenset({HandEmpty.ground([robot_obj])} | {OnShelf.ground([b]) for b in cylinders})
+
+    return PlanningModel(
+        name="kinematic_cylinder_shelf3d",
+        env=env,
+        types=(ROBOT_TYPE, CUBOID_TYPE),
+        predicates=(HandEmpty, Holding, OnFloor, OnShelf),
+        skills=(Skill(pick, SidePickController, env), Skill(place, SidePlaceController, env)),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        max_skill_horizon=300,
+        operator_filter=keep,
+        objects_fn=lambda s: [robot_obj, *cylinders],
+    )
+
+
+__all__: Sequence[str] = ["SidePickController", "SidePlaceController", "create_model", "side_quat"]
