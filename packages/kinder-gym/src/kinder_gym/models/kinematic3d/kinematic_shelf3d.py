@@ -14,13 +14,15 @@ goal asks for).
 Skills (motions collision-checked with the env's own pybullet geometry; OMPL for the base and the
 arm; IK with the robot model's solver):
 
-* Pick (:class:`BlockPickController`): Transport3D's pick, with the fingers closing across the
-  block's narrow side (a block is 10 cm long, wider than the open gripper).
-* Place (:class:`ShelfPlaceController`): retract the arm (carrying the block), drive to a
-  sampled standoff in front of (or behind) the shelf, reach above a sampled spot on the top
-  board, descend until the block is 3 mm above it, open, lift. The top board is the one a
-  top-down grasp can reach: the boards below it are only 0.254 m apart, less than the wrist
-  needs.
+* Pick (:class:`~kinder_gym.models.kinematic3d.pick_release.BlockPickController`): Transport3D's
+  pick, with the fingers closing across the block's narrow side (a block is 10 cm long, wider
+  than the open gripper).
+* Place (:class:`ShelfPlaceController`, a
+  :class:`~kinder_gym.models.kinematic3d.pick_release.ReleaseController`): retract the arm
+  (carrying the block), drive to a sampled standoff in front of (or behind) the shelf, reach
+  above a sampled spot on the top board, descend until the block is 3 mm above it, open, lift.
+  The top board is the one a top-down grasp can reach: the boards below it are only 0.254 m
+  apart, less than the wrist needs.
 
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
@@ -40,95 +42,17 @@ from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.hand import pick_operator, place_operator
+from kinder_gym.models.kinematic3d.pick_release import BlockPickController, ReleaseController
 from kinder_gym.models.kinematic3d.tidybot import (
-    HOME,
     PLANNING_MARGIN,
-    ConfigChecker,
     ConfigWaypoint,
-    PickController,
-    ReachController,
-    arm_path,
-    base_path,
-    config_delta,
     hand_atoms,
     hand_predicates,
-    solve_ik,
     tool_to_pinch,
     top_down_quat,
-    wrap,
-    yaw_of,
 )
-from kinder_gym.motion_planning import params_seed, segment_valid
 from kinder_gym.operators import GroundOperator
-from kinder_gym.skills import Skill, SkillFailure
-
-#: How far above the release pose the place reaches first (m). Shorter than the pick's
-#: approach: the release pose is near the top of the arm's top-down reach (about 0.92 m).
-PLACE_APPROACH = 0.05
-
-
-class BlockPickController(PickController):
-    """Pick a block off the floor from a sampled standoff, the fingers closing across its
-    narrower horizontal side. Objects: ``(robot, block)``."""
-
-    def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
-        robot, obj = self.objects
-        dist = 0.45 + 0.2 * float(self.params[0])
-        f = state[obj]
-        pos = np.asarray(f[:3], dtype=np.float64)
-        base = np.asarray(state[robot][:2], dtype=np.float64)
-        angle = math.atan2(pos[1] - base[1], pos[0] - base[0]) + (float(self.params[1]) - 0.5) * (
-            math.pi
-        )
-        obj_yaw = yaw_of(np.asarray(f[3:7]))
-        # The fingers close along ee_yaw + π/2; across the block's y side when it is the
-        # narrower one (ee_yaw = obj_yaw or obj_yaw + π), else across its x side.
-        close_dir = obj_yaw + (math.pi / 2 if f[10] <= f[9] else 0.0)
-        candidates = [close_dir - math.pi / 2 + k * math.pi for k in (0, 1)]
-        ee_yaw = min(candidates, key=lambda y: abs(wrap(y - angle)))
-        base_goal = self._standoff(state, pos, dist, angle)
-        return self._sequence(state, base_goal, pos, top_down_quat(ee_yaw), -1.0, salt=1)
-
-
-class ReleaseController(ReachController):
-    """Carry the held object to a release pose and open: retract, drive, reach
-    ``PLACE_APPROACH`` above the pose, descend, open, lift (the shared reach sequence with a
-    shorter approach). Objects: ``(robot, object)``."""
-
-    def initiable(self, state: ObjectCentricState) -> bool:
-        return state.get(self.objects[1], "grasp_active") > 0.5
-
-    def _place_sequence(
-        self,
-        state: ObjectCentricState,
-        base_goal: np.ndarray,
-        ee_pos: np.ndarray,
-        ee_quat: np.ndarray,
-    ) -> list[ConfigWaypoint]:
-        """Retract, drive, reach ``PLACE_APPROACH`` above the release pose, descend, open, lift
-        (the shared reach sequence with a shorter approach)."""
-        checker = ConfigChecker(self.context, state)
-        q = np.asarray(state[self.robot][:10], dtype=np.float64)
-        seed = params_seed(self.params, 2)
-        wps: list[ConfigWaypoint] = []
-        if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
-            path = arm_path(checker, q, HOME, seed)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
-        if np.max(np.abs(config_delta(q[:3], base_goal))) > 1e-6:
-            path = base_path(checker, q, base_goal, self.planning_bounds(state), seed)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
-        above = solve_ik(ee_pos + np.array([0.0, 0.0, PLACE_APPROACH]), ee_quat, q[:3], HOME)
-        at = solve_ik(ee_pos, ee_quat, q[:3], above)
-        q_above = np.concatenate([q[:3], above])
-        q_at = np.concatenate([q[:3], at])
-        wps += [self._wp(p) for p in arm_path(checker, q, above, seed + 1)]
-        if not segment_valid(q_above, q_at, checker, np.full(10, 0.05)):
-            raise SkillFailure(f"{type(self).__name__}: the final approach collides")
-        wps.append(self._wp(q_at, 1.0))
-        wps.append(self._wp(q_above))
-        return wps
+from kinder_gym.skills import Skill
 
 
 class ShelfPlaceController(ReleaseController):
@@ -224,9 +148,4 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     )
 
 
-__all__: Sequence[str] = [
-    "BlockPickController",
-    "ReleaseController",
-    "ShelfPlaceController",
-    "create_model",
-]
+__all__: Sequence[str] = ["ShelfPlaceController", "create_model"]

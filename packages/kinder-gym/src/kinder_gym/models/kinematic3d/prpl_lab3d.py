@@ -14,7 +14,7 @@ OnFloor) and ``Raise(?robot, ?cube)`` (pre Holding; add HandEmpty, Raised; delet
 Goal: every cube ``Raised`` and ``HandEmpty``.
 
 Skills: the pick is KinematicShelf3D's
-(:class:`~kinder_gym.models.kinematic3d.kinematic_shelf3d.BlockPickController`); the raise
+(:class:`~kinder_gym.models.kinematic3d.pick_release.BlockPickController`); the raise
 (:class:`RaiseController`) lifts the cube, where the robot stands, to a sampled point in front of
 the base at a sampled height above the goal height and opens. Imports kinder_garden3d (the
 ``[3d]`` extra).
@@ -35,10 +35,7 @@ from kinder_garden3d.kinematic3d.prpl_lab3d import PrplLab3DConfig
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.hand import pick_operator, place_operator
-from kinder_gym.models.kinematic3d.kinematic_shelf3d import (
-    BlockPickController,
-    ReleaseController,
-)
+from kinder_gym.models.kinematic3d.pick_release import BlockPickController, ReleaseController
 from kinder_gym.models.kinematic3d.tidybot import (
     ConfigWaypoint,
     hand_atoms,
