@@ -139,9 +139,9 @@ class SidePickController(_SideController):
 
     params_space = spaces.Box(0.0, 1.0, (3,), dtype=np.float64)
     params_doc = (
-        "(dist, angle, height): the base stands 0.7 + 0.15·dist metres from the cylinder's "
+        "(dist, angle, height): the base stands 0.75 + 0.1·dist metres from the cylinder's "
         "axis, approaching from (angle − 0.5)·π/2 radians off the line from the robot to the "
-        "cylinder; the fingers close 0.3 + 0.4·height of the way up the cylinder."
+        "cylinder; the fingers close 2 + 2·height cm below its top."
     )
 
     def initiable(self, state: ObjectCentricState) -> bool:
@@ -153,9 +153,10 @@ class SidePickController(_SideController):
         f = state[obj]
         base = np.asarray(state[robot][:2], dtype=np.float64)
         heading = math.atan2(f[1] - base[1], f[0] - base[0]) + (angle_p - 0.5) * math.pi / 2
-        bottom = float(f[2] - f[11])
-        grasp = np.array([f[0], f[1], bottom + (0.3 + 0.4 * height_p) * 2 * f[11]])
-        dist = 0.7 + 0.15 * dist_p
+        # Near the top: a level gripper reaches low points only at a narrow range of distances.
+        top = float(f[2] + f[11])
+        grasp = np.array([f[0], f[1], top - 0.02 - 0.02 * height_p])
+        dist = 0.75 + 0.1 * dist_p
         base_goal = self._standoff(state, grasp, dist, heading)
         return self._side_sequence(
             state, base_goal, grasp, side_quat(heading), heading, -1.0, salt=1
