@@ -126,6 +126,16 @@ def test_attribution_table_sets_the_papers_bp_beside_our_default() -> None:
     assert "| StickButton2D-b1 | not run | 0.98 ± 0.02 | -- |" in attribution_markdown(
         [ours, later], [BUTTON]
     )
+    # Our default BP run by a campaign under its label counts as ours; a labelled run at the
+    # paper's settings is a variant, never the paper's cell.
+    labelled = dataclasses.replace(ours, method="bp-ours")
+    labelled_paper = dataclasses.replace(paper_bp, method="bp-paper")
+    assert "| StickButton2D-b1 | 0.60 ± 0.02 | 0.98 ± 0.02 | +0.38 |" in attribution_markdown(
+        [labelled, paper_bp], [BUTTON]
+    )
+    assert "| StickButton2D-b1 | not run | 0.98 ± 0.02 | -- |" in attribution_markdown(
+        [labelled, labelled_paper], [BUTTON]
+    )
 
 
 def test_every_results_page_says_when_it_was_measured() -> None:

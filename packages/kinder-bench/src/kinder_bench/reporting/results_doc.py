@@ -237,7 +237,9 @@ def attribution_markdown(results: Sequence[Result], envs: Sequence[str]) -> str:
     """BP at the paper's settings (upstream's planner: one refinement round, no replanning, no
     plan-length check) beside our default BP, on the evaluation seeds and the env as it is now:
     how much of our BP's figure comes from the planner's monitoring and how much from the
-    skills the two share."""
+    skills the two share. Our default BP may carry a label (a campaign's ``bp-ours``): its
+    arguments, not its name, say what it is; the paper-settings column takes unlabelled rows
+    only, as the paper's cells do."""
     default_args = dataclasses.asdict(agent_class("bilevel_planning").Args())
     lines = [
         "| env | BP at the paper's settings (SR) | BP, our default (SR) | ours − paper settings |",
@@ -249,11 +251,10 @@ def attribution_markdown(results: Sequence[Result], envs: Sequence[str]) -> str:
             for r in results
             if r.env_id == env
             and r.agent == "bilevel_planning"
-            and not r.is_variant
             and _current(r)
             and tuple(sorted(r.seeds or ())) == PAPER_SEEDS
         ]
-        paper_run = next((r for r in runs if not protocol_deviations(r)), None)
+        paper_run = next((r for r in runs if not r.is_variant and not protocol_deviations(r)), None)
         ours = next((r for r in runs if r.agent_args == default_args), None)
         diff = (
             f"{(ours.success.mean or 0.0) - (paper_run.success.mean or 0.0):+.2f}"
