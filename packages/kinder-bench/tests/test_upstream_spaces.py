@@ -3,7 +3,9 @@
 The reference is ``benchmarks/results/upstream_spaces.json``, dumped from upstream with
 ``python benchmarks/probes/upstream_spaces.py --upstream`` (``gymnasium.make`` on each id, as a user
 would). Each id must have upstream's observation size, action size, object names in vector order
-and each object's feature names, except where :data:`EXCEPTIONS` documents why not.
+and each object's feature names, except where :data:`EXCEPTIONS` documents why not. The dump also
+holds upstream ids we do not register yet (``FrankaPickPlace3D-o1``, ``PickPlace3D-o1``), dumped
+the same way with ``--ids``: upstream builds them here without their "lab2" backdrop download.
 """
 
 from __future__ import annotations
