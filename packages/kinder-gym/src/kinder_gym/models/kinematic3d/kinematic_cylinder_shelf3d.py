@@ -33,29 +33,19 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.kinematic3d.geometry import compose, quat_to_matrix
+from kinder_garden3d.kinematic3d.geometry import compose
 from kinder_garden3d.kinematic3d.kinematic_cylinder_shelf3d import KinematicCylinderShelf3DConfig
-from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
-from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE
+from kinder_gym.concepts import Predicate
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.hand import pick_operator, place_operator
+from kinder_gym.models.kinematic3d.pick_release import floor_pick_model
 from kinder_gym.models.kinematic3d.tidybot import (
-    HOME,
     PLANNING_MARGIN,
-    ConfigChecker,
     ConfigWaypoint,
     ReachController,
-    arm_path,
-    base_path,
-    config_delta,
-    hand_atoms,
-    hand_predicates,
-    solve_ik,
-    tool_to_pinch,
+    release_pose,
 )
-from kinder_gym.motion_planning import FloatArray, params_seed, segment_valid
-from kinder_gym.operators import GroundOperator
-from kinder_gym.skills import Skill, SkillFailure
+from kinder_gym.motion_planning import FloatArray
 
 #: How far short of the grasp (or release) pose the gripper stops before moving in (m).
 SIDE_APPROACH = 0.06
@@ -105,33 +95,14 @@ class _SideController(ReachController):
         gripper: float,
         salt: int,
     ) -> list[ConfigWaypoint]:
-        checker = ConfigChecker(self.context, state)
-        q = np.asarray(state[self.robot][:10], dtype=np.float64)
-        seed = params_seed(self.params, salt)
-        wps: list[ConfigWaypoint] = []
-        if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
-            path = arm_path(checker, q, HOME, seed)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
-        if np.max(np.abs(config_delta(q[:3], base_goal))) > 1e-6:
-            path = base_path(checker, q, base_goal, self.planning_bounds(state), seed)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
+        """Retract, drive, reach ``SIDE_APPROACH`` short of the pinch pose along ``heading``,
+        move in, send ``gripper``; a pick (``gripper < 0``) then lifts the cylinder ``LIFT``
+        straight up, a place backs out of the shelf."""
         back = np.array([math.cos(heading), math.sin(heading), 0.0]) * SIDE_APPROACH
-        before = solve_ik(pinch_p - back, pinch_q, q[:3], HOME)
-        at = solve_ik(pinch_p, pinch_q, q[:3], before)
-        q_before = np.concatenate([q[:3], before])
-        q_at = np.concatenate([q[:3], at])
-        wps += [self._wp(p) for p in arm_path(checker, q, before, seed + 1)]
-        if not segment_valid(q_before, q_at, checker, np.full(10, 0.05)):
-            raise SkillFailure(f"{type(self).__name__}: the final approach collides")
-        wps.append(self._wp(q_at, gripper))
-        if gripper < 0:  # a pick lifts the cylinder straight up
-            up = solve_ik(pinch_p + np.array([0.0, 0.0, LIFT]), pinch_q, q[:3], at)
-            wps.append(self._wp(np.concatenate([q[:3], up])))
-        else:  # a place backs out of the shelf
-            wps.append(self._wp(q_before))
-        return wps
+        lift = np.array([0.0, 0.0, LIFT]) if gripper < 0 else None
+        return self._sequence(
+            state, base_goal, pinch_p, pinch_q, gripper, salt, approach=-back, lift=lift
+        )
 
 
 class SidePickController(_SideController):
@@ -198,22 +169,13 @@ class SidePlaceController(_SideController):
         heading = math.pi / 2  # from the front of the shelf (−y), facing +y
         pinch_q = side_quat(heading)
         tool_q = compose(np.zeros(3), pinch_q, np.zeros(3), _GRIPPER_TO_TOOL)[1]
-        tf_p = np.asarray(state[robot][12:15], dtype=np.float64)
-        tool_p = spot - quat_to_matrix(tool_q) @ tf_p
-        pinch_p, pinch_q = tool_to_pinch(tool_p, tool_q)
+        pinch_p, pinch_q = release_pose(state, robot, spot, tool_q)
         base_goal = self._standoff(state, pinch_p, 0.7 + 0.15 * dist_p, heading)
         return self._side_sequence(state, base_goal, pinch_p, pinch_q, heading, 1.0, salt=2)
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The KinematicCylinderShelf3D planning model (any number of cylinders)."""
-    robot_obj: Object = env.robot  # type: ignore[attr-defined]
-    cylinders: list[Object] = list(env.cylinders)  # type: ignore[attr-defined]
-
-    HandEmpty, Holding = hand_predicates()
-    OnFloor = Predicate("OnFloor", (CUBOID_TYPE,))
-    OnShelf = Predicate("OnShelf", (CUBOID_TYPE,))
-
     cfg = env.config  # type: ignore[attr-defined]
     sx, sy, sz = cfg.shelf_pos
     tops = cfg.shelf.surface_heights(sz)
@@ -227,38 +189,15 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         rest = float(state[c][11])
         return any(abs(z - (top + rest)) <= cfg.on_shelf_z_tolerance for top in tops)
 
-    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms = hand_atoms(state, robot_obj, HandEmpty)
-        for c in cylinders:
-            if state.get(c, "grasp_active") > 0.5:
-                atoms.add(Holding.ground([robot_obj, c]))
-            elif on_shelf(state, c):
-                atoms.add(OnShelf.ground([c]))
-            else:
-                atoms.add(OnFloor.ground([c]))
-        return frozenset(atoms)
-
-    c = Variable("?cylinder", CUBOID_TYPE)
-    pick = pick_operator("Pick", HandEmpty, Holding, c, [OnFloor.lift([c])])
-    place = place_operator("Place", HandEmpty, Holding, c, [OnShelf.lift([c])])
-
-    def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
-        return op.objects[1] in cylinders
-
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        return frozenset({HandEmpty.ground([robot_obj])} | {OnShelf.ground([b]) for b in cylinders})
-
-    return PlanningModel(
-        name="kinematic_cylinder_shelf3d",
-        env=env,
-        types=(ROBOT_TYPE, CUBOID_TYPE),
-        predicates=(HandEmpty, Holding, OnFloor, OnShelf),
-        skills=(Skill(pick, SidePickController, env), Skill(place, SidePlaceController, env)),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        max_skill_horizon=300,
-        operator_filter=keep,
-        objects_fn=lambda s: [robot_obj, *cylinders],
+    return floor_pick_model(
+        env,
+        "kinematic_cylinder_shelf3d",
+        list(env.cylinders),  # type: ignore[attr-defined]
+        "?cylinder",
+        Predicate("OnShelf", (CUBOID_TYPE,)),
+        on_shelf,
+        SidePickController,
+        SidePlaceController,
     )
 
 

@@ -36,23 +36,21 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.kinematic3d.geometry import quat_to_matrix
 from kinder_garden3d.kinematic3d.kinematic_shelf3d import KinematicShelf3DConfig
-from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
-from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE
+from kinder_gym.concepts import Predicate
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.hand import pick_operator, place_operator
-from kinder_gym.models.kinematic3d.pick_release import BlockPickController, ReleaseController
+from kinder_gym.models.kinematic3d.pick_release import (
+    BlockPickController,
+    ReleaseController,
+    floor_pick_model,
+)
 from kinder_gym.models.kinematic3d.tidybot import (
     PLANNING_MARGIN,
     ConfigWaypoint,
-    hand_atoms,
-    hand_predicates,
-    tool_to_pinch,
+    release_pose,
     top_down_quat,
 )
-from kinder_gym.operators import GroundOperator
-from kinder_gym.skills import Skill
 
 
 class ShelfPlaceController(ReleaseController):
@@ -93,58 +91,28 @@ class ShelfPlaceController(ReleaseController):
         pz = top + o_half[2] + 0.003
         angle = math.pi / 2 if side < 0.5 else -math.pi / 2
         dist = 0.38 + 0.12 * dist_p
-        # The block hangs below the end effector by the grasp transform (in the tool frame).
-        tf_p = np.asarray(state[robot][12:15], dtype=np.float64)
-        tool_q = top_down_quat(angle)
-        tool_p = np.array([px, py, pz]) - quat_to_matrix(tool_q) @ tf_p
-        ee_p, ee_q = tool_to_pinch(tool_p, tool_q)
+        ee_p, ee_q = release_pose(state, robot, np.array([px, py, pz]), top_down_quat(angle))
         base_goal = self._standoff(state, np.array([px, py]), dist, angle)
         return self._place_sequence(state, base_goal, ee_p, ee_q)
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The KinematicShelf3D planning model (any number of blocks)."""
-    robot_obj: Object = env.robot  # type: ignore[attr-defined]
-    cubes: list[Object] = list(env.cubes)  # type: ignore[attr-defined]
     cfg = env.config  # type: ignore[attr-defined]
     on_shelf_z = cfg.shelf_pos[2] + cfg.shelf.spacing - cfg.on_shelf_z_tolerance
 
-    HandEmpty, Holding = hand_predicates()
-    OnFloor = Predicate("OnFloor", (CUBOID_TYPE,))
-    OnShelf = Predicate("OnShelf", (CUBOID_TYPE,))
+    def on_shelf(state: ObjectCentricState, block: Object) -> bool:
+        return bool(state.get(block, "pose_z") >= on_shelf_z)
 
-    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms = hand_atoms(state, robot_obj, HandEmpty)
-        for c in cubes:
-            if state.get(c, "grasp_active") > 0.5:
-                atoms.add(Holding.ground([robot_obj, c]))
-            elif state.get(c, "pose_z") >= on_shelf_z:
-                atoms.add(OnShelf.ground([c]))
-            else:
-                atoms.add(OnFloor.ground([c]))
-        return frozenset(atoms)
-
-    c = Variable("?block", CUBOID_TYPE)
-    pick = pick_operator("Pick", HandEmpty, Holding, c, [OnFloor.lift([c])])
-    place = place_operator("Place", HandEmpty, Holding, c, [OnShelf.lift([c])])
-
-    def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
-        return op.objects[1] in cubes
-
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        return frozenset({HandEmpty.ground([robot_obj])} | {OnShelf.ground([b]) for b in cubes})
-
-    return PlanningModel(
-        name="kinematic_shelf3d",
-        env=env,
-        types=(ROBOT_TYPE, CUBOID_TYPE),
-        predicates=(HandEmpty, Holding, OnFloor, OnShelf),
-        skills=(Skill(pick, BlockPickController, env), Skill(place, ShelfPlaceController, env)),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        max_skill_horizon=300,
-        operator_filter=keep,
-        objects_fn=lambda s: [robot_obj, *cubes],
+    return floor_pick_model(
+        env,
+        "kinematic_shelf3d",
+        list(env.cubes),  # type: ignore[attr-defined]
+        "?block",
+        Predicate("OnShelf", (CUBOID_TYPE,)),
+        on_shelf,
+        BlockPickController,
+        ShelfPlaceController,
     )
 
 

@@ -1,11 +1,13 @@
-"""Controllers shared by the Kinematic3D models that move blocks (10 × 5 × 5 cm cuboids) and let
-go of them high up: KinematicShelf3D and PrplLab3D.
+"""Pieces shared by the Kinematic3D models that pick items off the floor and let go of them
+elsewhere: KinematicShelf3D, PrplLab3D and KinematicCylinderShelf3D.
 
 * :class:`BlockPickController`: the mobile manipulator's pick
   (:class:`~kinder_gym.models.kinematic3d.tidybot.PickController`), with the fingers closing
   across the block's narrow side (a block is longer than the open gripper is wide).
 * :class:`ReleaseController`: retract, drive, reach a little above a release pose, descend, open
   and lift; families give the release pose.
+* :func:`floor_pick_model`: the planning model over ``OnFloor`` and a family's "placed"
+  predicate, with one pick and one place skill (the family gives the test and the controllers).
 
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
@@ -13,27 +15,27 @@ Imports kinder_garden3d (the ``[3d]`` extra).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from kinder_core import ObjectCentricState
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
+from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import pick_operator, place_operator
 from kinder_gym.models.kinematic3d.tidybot import (
-    HOME,
-    ConfigChecker,
     ConfigWaypoint,
     PickController,
     ReachController,
-    arm_path,
-    base_path,
-    config_delta,
-    solve_ik,
-    top_down_quat,
-    wrap,
+    hand_atoms,
+    hand_predicates,
+    held_or_resting,
     yaw_of,
 )
-from kinder_gym.motion_planning import params_seed, segment_valid
-from kinder_gym.skills import SkillFailure
+from kinder_gym.motion_planning import FloatArray
+from kinder_gym.operators import GroundOperator
+from kinder_gym.skills import Controller, Skill
 
 #: How far above the release pose the place reaches first (m). Shorter than the pick's
 #: approach: the release pose is near the top of the arm's top-down reach (about 0.92 m).
@@ -44,23 +46,12 @@ class BlockPickController(PickController):
     """Pick a block off the floor from a sampled standoff, the fingers closing across its
     narrower horizontal side. Objects: ``(robot, block)``."""
 
-    def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
-        robot, obj = self.objects
-        dist = 0.45 + 0.2 * float(self.params[0])
-        f = state[obj]
-        pos = np.asarray(f[:3], dtype=np.float64)
-        base = np.asarray(state[robot][:2], dtype=np.float64)
-        angle = math.atan2(pos[1] - base[1], pos[0] - base[0]) + (float(self.params[1]) - 0.5) * (
-            math.pi
-        )
+    def _grasp(self, f: FloatArray, angle: float) -> tuple[FloatArray, float, tuple[int, ...]]:
+        """The block's centre; the fingers close across its y side when that is the narrower
+        one, else across its x side (two yaws, half a turn apart)."""
         obj_yaw = yaw_of(np.asarray(f[3:7]))
-        # The fingers close along ee_yaw + π/2; across the block's y side when it is the
-        # narrower one (ee_yaw = obj_yaw or obj_yaw + π), else across its x side.
         close_dir = obj_yaw + (math.pi / 2 if f[10] <= f[9] else 0.0)
-        candidates = [close_dir - math.pi / 2 + k * math.pi for k in (0, 1)]
-        ee_yaw = min(candidates, key=lambda y: abs(wrap(y - angle)))
-        base_goal = self._standoff(state, pos, dist, angle)
-        return self._sequence(state, base_goal, pos, top_down_quat(ee_yaw), -1.0, salt=1)
+        return np.asarray(f[:3], dtype=np.float64), close_dir, (0, 2)
 
 
 class ReleaseController(ReachController):
@@ -74,34 +65,72 @@ class ReleaseController(ReachController):
     def _place_sequence(
         self,
         state: ObjectCentricState,
-        base_goal: np.ndarray,
-        ee_pos: np.ndarray,
-        ee_quat: np.ndarray,
+        base_goal: FloatArray,
+        ee_pos: FloatArray,
+        ee_quat: FloatArray,
     ) -> list[ConfigWaypoint]:
-        """Retract, drive, reach ``PLACE_APPROACH`` above the release pose, descend, open, lift
-        (the shared reach sequence with a shorter approach)."""
-        checker = ConfigChecker(self.context, state)
-        q = np.asarray(state[self.robot][:10], dtype=np.float64)
-        seed = params_seed(self.params, 2)
-        wps: list[ConfigWaypoint] = []
-        if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
-            path = arm_path(checker, q, HOME, seed)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
-        if np.max(np.abs(config_delta(q[:3], base_goal))) > 1e-6:
-            path = base_path(checker, q, base_goal, self.planning_bounds(state), seed)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
-        above = solve_ik(ee_pos + np.array([0.0, 0.0, PLACE_APPROACH]), ee_quat, q[:3], HOME)
-        at = solve_ik(ee_pos, ee_quat, q[:3], above)
-        q_above = np.concatenate([q[:3], above])
-        q_at = np.concatenate([q[:3], at])
-        wps += [self._wp(p) for p in arm_path(checker, q, above, seed + 1)]
-        if not segment_valid(q_above, q_at, checker, np.full(10, 0.05)):
-            raise SkillFailure(f"{type(self).__name__}: the final approach collides")
-        wps.append(self._wp(q_at, 1.0))
-        wps.append(self._wp(q_above))
-        return wps
+        """Retract, drive, reach ``PLACE_APPROACH`` above the release pose, descend, open, lift."""
+        approach = np.array([0.0, 0.0, PLACE_APPROACH])
+        return self._sequence(state, base_goal, ee_pos, ee_quat, 1.0, salt=2, approach=approach)
 
 
-__all__: Sequence[str] = ["PLACE_APPROACH", "BlockPickController", "ReleaseController"]
+def floor_pick_model(
+    env: ObjectCentricEnv,
+    name: str,
+    items: Sequence[Object],
+    item_var: str,
+    placed: Predicate,
+    is_placed: Callable[[ObjectCentricState, Object], bool],
+    pick_controller: type[Controller],
+    place_controller: type[Controller],
+    place_name: str = "Place",
+) -> PlanningModel:
+    """A planning model that picks every item off the floor and puts it where ``placed`` holds.
+
+    Concepts: ``HandEmpty(robot)`` / ``Holding(robot, item)``; ``placed(item)`` when the item is
+    not held and ``is_placed`` says so; ``OnFloor(item)`` when it is neither. Operators:
+    ``Pick(?robot, item_var)`` (pre HandEmpty, OnFloor; add Holding; delete HandEmpty, OnFloor)
+    and ``place_name(?robot, item_var)`` (pre Holding; add HandEmpty, ``placed``; delete
+    Holding), grounded on the items only. Goal: every item ``placed`` and ``HandEmpty``.
+    """
+    robot_obj: Object = env.robot  # type: ignore[attr-defined]
+    HandEmpty, Holding = hand_predicates()
+    OnFloor = Predicate("OnFloor", (CUBOID_TYPE,))
+
+    def resting(state: ObjectCentricState, item: Object) -> GroundAtom:
+        return placed.ground([item]) if is_placed(state, item) else OnFloor.ground([item])
+
+    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        atoms = hand_atoms(state, robot_obj, HandEmpty)
+        return frozenset(atoms | held_or_resting(state, robot_obj, Holding, items, resting))
+
+    v = Variable(item_var, CUBOID_TYPE)
+    pick = pick_operator("Pick", HandEmpty, Holding, v, [OnFloor.lift([v])])
+    place = place_operator(place_name, HandEmpty, Holding, v, [placed.lift([v])])
+
+    def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
+        return op.objects[1] in items
+
+    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        return frozenset({HandEmpty.ground([robot_obj])} | {placed.ground([b]) for b in items})
+
+    return PlanningModel(
+        name=name,
+        env=env,
+        types=(ROBOT_TYPE, CUBOID_TYPE),
+        predicates=(HandEmpty, Holding, OnFloor, placed),
+        skills=(Skill(pick, pick_controller, env), Skill(place, place_controller, env)),
+        goal_fn=goal,
+        abstraction_fn=abstraction,
+        max_skill_horizon=300,
+        operator_filter=keep,
+        objects_fn=lambda s: [robot_obj, *items],
+    )
+
+
+__all__: Sequence[str] = [
+    "PLACE_APPROACH",
+    "BlockPickController",
+    "ReleaseController",
+    "floor_pick_model",
+]

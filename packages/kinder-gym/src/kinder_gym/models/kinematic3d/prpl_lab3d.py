@@ -29,22 +29,20 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.kinematic3d.geometry import quat_to_matrix
-from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
+from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE
 from kinder_garden3d.kinematic3d.prpl_lab3d import PrplLab3DConfig
-from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.concepts import Predicate
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.hand import pick_operator, place_operator
-from kinder_gym.models.kinematic3d.pick_release import BlockPickController, ReleaseController
+from kinder_gym.models.kinematic3d.pick_release import (
+    BlockPickController,
+    ReleaseController,
+    floor_pick_model,
+)
 from kinder_gym.models.kinematic3d.tidybot import (
     ConfigWaypoint,
-    hand_atoms,
-    hand_predicates,
-    tool_to_pinch,
+    release_pose,
     top_down_quat,
 )
-from kinder_gym.operators import GroundOperator
-from kinder_gym.skills import Skill
 
 
 class RaiseController(ReleaseController):
@@ -74,56 +72,28 @@ class RaiseController(ReleaseController):
                 goal_z + 0.02 + 0.06 * height,
             ]
         )
-        tf_p = np.asarray(state[robot][12:15], dtype=np.float64)
-        tool_q = top_down_quat(heading)
-        tool_p = spot - quat_to_matrix(tool_q) @ tf_p
-        ee_p, ee_q = tool_to_pinch(tool_p, tool_q)
+        ee_p, ee_q = release_pose(state, robot, spot, top_down_quat(heading))
         return self._place_sequence(state, np.array([x, y, yaw]), ee_p, ee_q)
 
 
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The PrplLab3D planning model (any number of cubes)."""
-    robot_obj: Object = env.robot  # type: ignore[attr-defined]
-    cubes: list[Object] = list(env.cubes)  # type: ignore[attr-defined]
     cfg = env.config  # type: ignore[attr-defined]
     goal_z = cfg.counter_top_z - cfg.goal_below_counter
 
-    HandEmpty, Holding = hand_predicates()
-    OnFloor = Predicate("OnFloor", (CUBOID_TYPE,))
-    Raised = Predicate("Raised", (CUBOID_TYPE,))
+    def raised(state: ObjectCentricState, cube: Object) -> bool:
+        return bool(state.get(cube, "pose_z") >= goal_z)
 
-    def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        atoms = hand_atoms(state, robot_obj, HandEmpty)
-        for c in cubes:
-            if state.get(c, "grasp_active") > 0.5:
-                atoms.add(Holding.ground([robot_obj, c]))
-            elif state.get(c, "pose_z") >= goal_z:
-                atoms.add(Raised.ground([c]))
-            else:
-                atoms.add(OnFloor.ground([c]))
-        return frozenset(atoms)
-
-    c = Variable("?cube", CUBOID_TYPE)
-    pick = pick_operator("Pick", HandEmpty, Holding, c, [OnFloor.lift([c])])
-    raise_ = place_operator("Raise", HandEmpty, Holding, c, [Raised.lift([c])])
-
-    def keep(op: GroundOperator, state: ObjectCentricState) -> bool:
-        return op.objects[1] in cubes
-
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        return frozenset({HandEmpty.ground([robot_obj])} | {Raised.ground([b]) for b in cubes})
-
-    return PlanningModel(
-        name="prpl_lab3d",
-        env=env,
-        types=(ROBOT_TYPE, CUBOID_TYPE),
-        predicates=(HandEmpty, Holding, OnFloor, Raised),
-        skills=(Skill(pick, BlockPickController, env), Skill(raise_, RaiseController, env)),
-        goal_fn=goal,
-        abstraction_fn=abstraction,
-        max_skill_horizon=300,
-        operator_filter=keep,
-        objects_fn=lambda s: [robot_obj, *cubes],
+    return floor_pick_model(
+        env,
+        "prpl_lab3d",
+        list(env.cubes),  # type: ignore[attr-defined]
+        "?cube",
+        Predicate("Raised", (CUBOID_TYPE,)),
+        raised,
+        BlockPickController,
+        RaiseController,
+        place_name="Raise",
     )
 
 

@@ -32,6 +32,7 @@ from kinder_gym.models.kinematic3d.tidybot import (
     PickController,
     hand_atoms,
     hand_predicates,
+    held_or_resting,
 )
 from kinder_gym.operators import GroundOperator
 from kinder_gym.skills import Skill
@@ -49,11 +50,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
         atoms = hand_atoms(state, robot_obj, HandEmpty)
-        for c in cubes:
-            if state.get(c, "grasp_active") > 0.5:
-                atoms.add(Holding.ground([robot_obj, c]))
-            else:
-                atoms.add(OnTable.ground([c]))
+        atoms |= held_or_resting(state, robot_obj, Holding, cubes, lambda s, c: OnTable.ground([c]))
         if env.goal_reached(state):
             atoms.add(HoldingUp.ground([robot_obj]))
         return frozenset(atoms)

@@ -12,9 +12,9 @@ reverted a colliding motion).
 own pybullet geometry (``env.penetrations``), carrying the held object (and what a held container
 holds) along. :class:`ReachController` (drive to a standoff, reach down, act, lift) and
 :class:`TableTopController` (reach from the home base pose) are the motions the family models
-build their skills from; :func:`hand_predicates` and :func:`hand_atoms` build the hand's
-predicates every family model shares (its pick/place operators come from
-:mod:`kinder_gym.models.hand`).
+build their skills from (:func:`release_pose` aims a held object); :func:`hand_predicates`,
+:func:`hand_atoms` and :func:`held_or_resting` build the hand's predicates and atoms every family
+model shares (its pick/place operators come from :mod:`kinder_gym.models.hand`).
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
 
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import abc
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -97,6 +97,18 @@ def tool_to_pinch(pos: FloatArray, quat: FloatArray) -> tuple[FloatArray, FloatA
     pinch_p = p + quat_to_matrix(q)[:, 2] * (PINCH_OFFSET - TOOL_OFFSET)
     _, pinch_q = compose(np.zeros(3), q, np.zeros(3), _TOOL_TO_GRIPPER)
     return pinch_p, normalize_quat(pinch_q)
+
+
+def release_pose(
+    state: ObjectCentricState, robot: Object, spot: FloatArray, tool_quat: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """The pinch pose (what :func:`solve_ik` places) that puts the held object's centre at
+    ``spot`` with the tool frame turned to ``tool_quat``: the object hangs off the tool frame
+    by the robot's grasp transform (its features 12–14), so the tool goes to ``spot`` less
+    that offset turned into the world frame."""
+    tf_p = np.asarray(state[robot][12:15], dtype=np.float64)
+    tool_p = np.asarray(spot, dtype=np.float64) - quat_to_matrix(tool_quat) @ tf_p
+    return tool_to_pinch(tool_p, tool_quat)
 
 
 @dataclass(frozen=True)
@@ -334,6 +346,28 @@ class ReachController(TidyBotController):
     def _wp(self, q: FloatArray, gripper: float = 0.0) -> ConfigWaypoint:
         return ConfigWaypoint(tuple(float(v) for v in q), gripper)
 
+    def _drive(
+        self,
+        checker: ConfigChecker,
+        q: FloatArray,
+        base_goal: FloatArray,
+        bounds: tuple[float, float, float, float],
+        arm_seed: int,
+        base_seed: int,
+    ) -> tuple[list[ConfigWaypoint], FloatArray]:
+        """Retract the arm where the robot stands, then drive the base to ``base_goal`` within
+        ``bounds`` (each step only when needed): the waypoints and the configuration reached."""
+        wps: list[ConfigWaypoint] = []
+        if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
+            path = arm_path(checker, q, HOME, arm_seed)
+            wps += [self._wp(p) for p in path]
+            q = path[-1]
+        if np.max(np.abs(config_delta(q[:3], base_goal))) > 1e-6:
+            path = base_path(checker, q, base_goal, bounds, base_seed)
+            wps += [self._wp(p) for p in path]
+            q = path[-1]
+        return wps, q
+
     def _sequence(
         self,
         state: ObjectCentricState,
@@ -342,24 +376,21 @@ class ReachController(TidyBotController):
         ee_quat: FloatArray,
         gripper: float,
         salt: int,
+        approach: FloatArray | None = None,
+        lift: FloatArray | None = None,
     ) -> list[ConfigWaypoint]:
+        """Retract, drive to ``base_goal``, reach the pre-pose ``ee_pos + approach`` (default
+        ``APPROACH`` straight above), move straight in, send ``gripper``, then move back to the
+        pre-pose, or to ``ee_pos + lift`` when ``lift`` is given."""
         env = self.context
         checker = ConfigChecker(env, state)
         q = np.asarray(state[self.robot][:10], dtype=np.float64)
         seed = params_seed(self.params, salt)
-        wps: list[ConfigWaypoint] = []
-        # 1. Retract the arm where the robot stands.
-        if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
-            path = arm_path(checker, q, HOME, seed)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
-        # 2. Drive to the standoff.
-        if np.max(np.abs(config_delta(q[:3], base_goal))) > 1e-6:
-            path = base_path(checker, q, base_goal, self.planning_bounds(state), seed)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
-        # 3. Reach above, then down (IK seeded from the retract pose, then from the approach).
-        above = solve_ik(ee_pos + np.array([0.0, 0.0, APPROACH]), ee_quat, q[:3], HOME)
+        wps, q = self._drive(checker, q, base_goal, self.planning_bounds(state), seed, seed)
+        # Reach the pre-pose, then move in (IK seeded from the retract pose, then from the
+        # pre-pose).
+        offset = np.array([0.0, 0.0, APPROACH]) if approach is None else approach
+        above = solve_ik(ee_pos + offset, ee_quat, q[:3], HOME)
         at = solve_ik(ee_pos, ee_quat, q[:3], above)
         q_above = np.concatenate([q[:3], above])
         q_at = np.concatenate([q[:3], at])
@@ -368,8 +399,12 @@ class ReachController(TidyBotController):
         if not segment_valid(q_above, q_at, checker, np.full(10, 0.05)):
             raise SkillFailure(f"{type(self).__name__}: the final approach collides")
         wps.append(self._wp(q_at, gripper))
-        # 4. Lift straight back (the env checks that move itself).
-        wps.append(self._wp(q_above))
+        # Move back out (the env checks that move itself).
+        if lift is None:
+            wps.append(self._wp(q_above))
+        else:
+            up = solve_ik(ee_pos + lift, ee_quat, q[:3], at)
+            wps.append(self._wp(np.concatenate([q[:3], up])))
         return wps
 
     def planning_bounds(self, state: ObjectCentricState) -> tuple[float, float, float, float]:
@@ -419,38 +454,43 @@ class PickController(ReachController):
         base = np.asarray(state[robot][:2], dtype=np.float64)
         offset = (float(self.params[1]) - 0.5) * math.pi
         angle = math.atan2(pos[1] - base[1], pos[0] - base[0]) + offset
-        obj_yaw = yaw_of(np.asarray(f[3:7]))
-        half = np.asarray(f[9:12], dtype=np.float64)
-        # Upstream's object_type is −1 for every cuboid; a container is what the env carries
-        # things in (every half extent above CONTAINER_MIN_HALF_EXTENT).
-        container = bool(np.all(half > CONTAINER_MIN_HALF_EXTENT))
-        if container:  # grasp the top of the wall nearest the robot
-            c, s = math.cos(obj_yaw), math.sin(obj_yaw)
-            local = np.array([math.cos(angle + math.pi), math.sin(angle + math.pi)])
-            lx, ly = c * local[0] + s * local[1], -s * local[0] + c * local[1]
-            if abs(lx) * half[1] >= abs(ly) * half[0]:
-                off = np.array([math.copysign(half[0] - 0.005, lx), 0.0])
-                close_dir = obj_yaw
-            else:
-                off = np.array([0.0, math.copysign(half[1] - 0.005, ly)])
-                close_dir = obj_yaw + math.pi / 2
-            grasp = np.array(
-                [
-                    pos[0] + c * off[0] - s * off[1],
-                    pos[1] + s * off[0] + c * off[1],
-                    pos[2] + half[2] - 0.02,
-                ]
-            )
-        else:
-            grasp = pos.copy()
-            close_dir = obj_yaw
-        # Fingers close along ee_yaw + π/2: across the wall for the box (two yaws), across any
-        # pair of faces for a cube (four yaws); take the one closest to the approach direction.
-        turns = (0, 2) if container else (0, 1, 2, 3)
+        grasp, close_dir, turns = self._grasp(f, angle)
+        # Fingers close along ee_yaw + π/2; take the yaw closest to the approach direction.
         candidates = [close_dir - math.pi / 2 + k * math.pi / 2 for k in turns]
         ee_yaw = min(candidates, key=lambda y: abs(wrap(y - angle)))
         base_goal = self._standoff(state, grasp, dist, angle)
         return self._sequence(state, base_goal, grasp, top_down_quat(ee_yaw), -1.0, salt=1)
+
+    def _grasp(self, f: FloatArray, angle: float) -> tuple[FloatArray, float, tuple[int, ...]]:
+        """The grasp point of the object with features ``f`` approached from ``angle``, the
+        direction the fingers close along, and the quarter turns of that direction they may
+        take: across the wall for a container (two), across any pair of faces for a cube
+        (four)."""
+        pos = np.asarray(f[:3], dtype=np.float64)
+        obj_yaw = yaw_of(np.asarray(f[3:7]))
+        half = np.asarray(f[9:12], dtype=np.float64)
+        # Upstream's object_type is −1 for every cuboid; a container is what the env carries
+        # things in (every half extent above CONTAINER_MIN_HALF_EXTENT).
+        if not bool(np.all(half > CONTAINER_MIN_HALF_EXTENT)):
+            return pos.copy(), obj_yaw, (0, 1, 2, 3)
+        # Grasp the top of the wall nearest the robot.
+        c, s = math.cos(obj_yaw), math.sin(obj_yaw)
+        local = np.array([math.cos(angle + math.pi), math.sin(angle + math.pi)])
+        lx, ly = c * local[0] + s * local[1], -s * local[0] + c * local[1]
+        if abs(lx) * half[1] >= abs(ly) * half[0]:
+            off = np.array([math.copysign(half[0] - 0.005, lx), 0.0])
+            close_dir = obj_yaw
+        else:
+            off = np.array([0.0, math.copysign(half[1] - 0.005, ly)])
+            close_dir = obj_yaw + math.pi / 2
+        grasp = np.array(
+            [
+                pos[0] + c * off[0] - s * off[1],
+                pos[1] + s * off[0] + c * off[1],
+                pos[2] + half[2] - 0.02,
+            ]
+        )
+        return grasp, close_dir, (0, 2)
 
 
 class TableTopController(ReachController):
@@ -484,14 +524,8 @@ class TableTopController(ReachController):
         wps: list[ConfigWaypoint] = []
         if np.max(np.abs(config_delta(q[:3], base))) > 1e-6:
             # Drive with the arm retracted.
-            if np.max(np.abs(config_delta(q[3:], HOME))) > 1e-6:
-                path = arm_path(checker, q, HOME, seed + 5)
-                wps += [self._wp(p) for p in path]
-                q = path[-1]
             x0, x1, y0, y1 = env.config.world_bounds
-            path = base_path(checker, q, base, (x0, x1, y0, y1), seed + 7)
-            wps += [self._wp(p) for p in path]
-            q = path[-1]
+            wps, q = self._drive(checker, q, base, (x0, x1, y0, y1), seed + 5, seed + 7)
         path = arm_path(checker, q, above, seed)
         wps += [self._wp(p) for p in path]
         return [*wps, self._wp(q_at, gripper), self._wp(q_above)]
@@ -548,6 +582,21 @@ def hand_predicates(held: Type = CUBOID_TYPE) -> tuple[Predicate, Predicate]:
     """``HandEmpty(robot)`` and ``Holding(robot, held)``, the hand's predicates of the
     Kinematic3D models (each model's abstraction decides when they hold)."""
     return Predicate("HandEmpty", (ROBOT_TYPE,)), Predicate("Holding", (ROBOT_TYPE, held))
+
+
+def held_or_resting(
+    state: ObjectCentricState,
+    robot: Object,
+    holding: Predicate,
+    objects: Sequence[Object],
+    resting: Callable[[ObjectCentricState, Object], GroundAtom],
+) -> set[GroundAtom]:
+    """``Holding(robot, o)`` for each of ``objects`` the robot holds (its ``grasp_active`` is
+    on), and the atom ``resting`` gives for each of the others (where it lies)."""
+    return {
+        holding.ground([robot, o]) if state.get(o, "grasp_active") > 0.5 else resting(state, o)
+        for o in objects
+    }
 
 
 def hand_atoms(state: ObjectCentricState, robot: Object, hand_empty: Predicate) -> set[GroundAtom]:

@@ -33,7 +33,6 @@ import numpy as np
 from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.kinematic3d.geometry import quat_to_matrix
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
@@ -44,7 +43,8 @@ from kinder_gym.models.kinematic3d.tidybot import (
     ReachController,
     hand_atoms,
     hand_predicates,
-    tool_to_pinch,
+    held_or_resting,
+    release_pose,
     top_down_quat,
 )
 from kinder_gym.operators import GroundOperator
@@ -80,13 +80,8 @@ class PlaceController(ReachController):
         pz = t[2] + t_half[2] + o_half[2] + 0.003
         angle = (0.0, math.pi / 2, -math.pi / 2)[min(2, int(side * 3))]
         dist = 0.45 + 0.2 * dist_p
-        # The end effector points down along the approach; the object hangs below it by the
-        # grasp transform, so the end effector goes where that puts the object at the spot.
-        # The grasp transform is in the tool frame, a quarter turn from the pinch frame.
-        tf_p = np.asarray(state[robot][12:15], dtype=np.float64)
-        tool_q = top_down_quat(angle)
-        tool_p = np.array([px, py, pz]) - quat_to_matrix(tool_q) @ tf_p
-        ee_p, ee_q = tool_to_pinch(tool_p, tool_q)
+        # The end effector points down along the approach, the object hanging below it.
+        ee_p, ee_q = release_pose(state, robot, np.array([px, py, pz]), top_down_quat(angle))
         base_goal = self._standoff(state, np.array([px, py]), dist, angle)
         return self._sequence(state, base_goal, ee_p, ee_q, 1.0, salt=2)
 
@@ -98,23 +93,18 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     cubes: list[Object] = list(env.cubes)  # type: ignore[attr-defined]
     movables = sorted([*cubes, env.box], key=lambda o: o.name)  # type: ignore[attr-defined]
 
-    def held(s: ObjectCentricState, o: Object) -> bool:
-        return s.get(o, "grasp_active") > 0.5
-
     HandEmpty, Holding = hand_predicates()
     OnFloor = Predicate("OnFloor", (CUBOID_TYPE,))
     OnTable = Predicate("OnTable", (CUBOID_TYPE, CUBOID_TYPE))
 
+    def resting(state: ObjectCentricState, o: Object) -> GroundAtom:
+        if state.get(o, "pose_z") >= TABLE_Z:
+            return OnTable.ground([o, table_obj])
+        return OnFloor.ground([o])
+
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
         atoms = hand_atoms(state, robot_obj, HandEmpty)
-        for o in movables:
-            if held(state, o):
-                atoms.add(Holding.ground([robot_obj, o]))
-            elif state.get(o, "pose_z") >= TABLE_Z:
-                atoms.add(OnTable.ground([o, table_obj]))
-            else:
-                atoms.add(OnFloor.ground([o]))
-        return frozenset(atoms)
+        return frozenset(atoms | held_or_resting(state, robot_obj, Holding, movables, resting))
 
     o = Variable("?object", CUBOID_TYPE)
     t = Variable("?table", CUBOID_TYPE)
