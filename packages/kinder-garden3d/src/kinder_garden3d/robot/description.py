@@ -567,13 +567,16 @@ def forward_kinematics(
     arm_joints: NDArray[np.float64] | tuple[float, ...],
     finger_state: float = 0.0,
     base_z: float = 0.0,
+    desc: RobotDescription | None = None,
 ) -> dict[str, NDArray[np.float64]]:
     """Pure-numpy forward kinematics: a 4x4 world transform for every link and frame.
 
-    ``base_pose`` is (x, y, yaw) of the base; ``arm_joints`` the 7 arm joint angles. This is the
-    reference implementation the URDF and MJCF are both tested against.
+    ``base_pose`` is (x, y, yaw) of the base; ``arm_joints`` the 7 arm joint angles. ``desc`` is
+    the robot (default: the mobile manipulator; e.g. :func:`~kinder_garden3d.robot.fr3.
+    fr3_description` for the FR3 arm, whose root is its mount). This is the reference
+    implementation the URDF and MJCF are both tested against.
     """
-    desc = robot_description()
+    desc = robot_description() if desc is None else desc
     if len(arm_joints) != len(desc.arm_joint_names):
         raise ValueError(f"Expected {len(desc.arm_joint_names)} arm joints, got {len(arm_joints)}")
     x, y, yaw = base_pose

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from kinder_garden3d.robot.description import (
-    RETRACT,
+    RobotDescription,
     quat_xyzw_to_matrix,
     robot_description,
 )
@@ -49,14 +49,17 @@ class IKResult:
 class InverseKinematics:
     """End-effector IK for the mobile manipulator (see module docstring)."""
 
-    def __init__(self, free_base: bool = False) -> None:
+    def __init__(self, free_base: bool = False, desc: RobotDescription | None = None) -> None:
+        """``desc`` is the robot (default: the mobile manipulator; e.g. the FR3 arm of
+        :func:`~kinder_garden3d.robot.fr3.fr3_description`); its ``retract`` is the first guess."""
         self.free_base = free_base
-        self._model = mujoco.MjModel.from_xml_string(to_mjcf(free_base=free_base))
+        desc = robot_description() if desc is None else desc
+        self._retract = desc.retract
+        self._model = mujoco.MjModel.from_xml_string(to_mjcf(desc, free_base=free_base))
         self._config = mink.Configuration(self._model)
         self._task = mink.FrameTask(_SITE, "site", position_cost=1.0, orientation_cost=1.0)
         self._posture = mink.PostureTask(self._model, cost=1e-3)
         self._limits: list[mink.Limit] = [mink.ConfigurationLimit(self._model)]
-        desc = robot_description()
         self._arm_qadr = np.array(
             [self._model.jnt_qposadr[self._model.joint(n).id] for n in desc.arm_joint_names]
         )
@@ -110,7 +113,9 @@ class InverseKinematics:
         target = mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(local_rot), local_pos)
         self._task.set_target(target)
 
-        arm0 = np.array(RETRACT if initial_arm_joints is None else initial_arm_joints, dtype=float)
+        arm0 = np.array(
+            self._retract if initial_arm_joints is None else initial_arm_joints, dtype=float
+        )
         if arm0.shape != (7,):
             raise ValueError(f"initial_arm_joints must have 7 entries, got {arm0.shape}")
         rng = np.random.default_rng(seed)
