@@ -5,14 +5,17 @@ builds them for its robot type); picking and placing change them the same way in
 whatever else (the source or target of the item) they need and change. The robot's moves that
 need the hand empty and leave it so (a push, a press, opening a drawer) are
 :func:`empty_hand_operator`; those that use a held tool and keep holding it (a hook, a stick, a
-scoop, a wiper) are :func:`tool_operator`.
+scoop, a wiper) are :func:`tool_operator`. A model whose goal is one classified atom (the robot
+at a target, a block at its goal pose) pairs it with its negation (:func:`goal_predicates`) and
+reaches it with one move that turns the one into the other (:func:`goal_operator`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-from kinder_gym.concepts import LiftedAtom, Predicate, Variable
+from kinder_core import Type
+from kinder_gym.concepts import Classifier, LiftedAtom, Predicate, Variable
 from kinder_gym.operators import LiftedOperator
 
 
@@ -104,8 +107,32 @@ def tool_operator(
     )
 
 
+def goal_predicates(
+    name: str, types: Sequence[Type], holds: Classifier
+) -> tuple[Predicate, Predicate]:
+    """``name`` classified by ``holds`` and ``Not<name>``, its negation."""
+    return (
+        Predicate(name, tuple(types), holds),
+        Predicate(f"Not{name}", tuple(types), lambda s, o: not holds(s, o)),
+    )
+
+
+def goal_operator(
+    name: str,
+    params: Sequence[Variable],
+    goal: Predicate,
+    not_goal: Predicate,
+    args: Sequence[Variable],
+) -> LiftedOperator:
+    """``name(*params)``: with ``not_goal(*args)`` true, make ``goal(*args)`` true instead."""
+    before = frozenset({not_goal.lift(args)})
+    return LiftedOperator(name, tuple(params), before, frozenset({goal.lift(args)}), before)
+
+
 __all__: Sequence[str] = [
     "empty_hand_operator",
+    "goal_operator",
+    "goal_predicates",
     "pick_operator",
     "place_operator",
     "tool_operator",

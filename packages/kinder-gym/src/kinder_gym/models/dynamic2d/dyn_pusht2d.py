@@ -54,10 +54,10 @@ from gymnasium import spaces
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden2d.dynamic2d import object_types as ot
-from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.concepts import GroundAtom, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import goal_operator, goal_predicates
 from kinder_gym.motion_planning import FloatArray
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Controller, Skill, SkillFailure
 
 #: Travel grid resolution (metres): one grid move is one action at the env's bound of 0.05.
@@ -452,16 +452,9 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     def reached(s: ObjectCentricState, o: Sequence[Object]) -> bool:
         return at_goal(s, o[0], o[1], pos_tol, ang_tol)
 
-    AtGoal = Predicate("AtGoal", (tee_t, tee_t), reached)
-    NotAtGoal = Predicate("NotAtGoal", (tee_t, tee_t), lambda s, o: not reached(s, o))
+    AtGoal, NotAtGoal = goal_predicates("AtGoal", (tee_t, tee_t), reached)
     r, t, g = Variable("?robot", robot_t), Variable("?tblock", tee_t), Variable("?goal", tee_t)
-    push = LiftedOperator(
-        "PushToGoal",
-        (r, t, g),
-        frozenset({NotAtGoal.lift([t, g])}),
-        frozenset({AtGoal.lift([t, g])}),
-        frozenset({NotAtGoal.lift([t, g])}),
-    )
+    push = goal_operator("PushToGoal", (r, t, g), AtGoal, NotAtGoal, (t, g))
     tblock, goal_obj = env.tblock, env.goal_tblock  # type: ignore[attr-defined]
 
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:

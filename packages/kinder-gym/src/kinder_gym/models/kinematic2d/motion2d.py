@@ -25,8 +25,9 @@ from gymnasium import spaces
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden2d.kinematic2d.object_types import CRV_ROBOT, RECTANGLE, TARGET_REGION
 from kinder_garden2d.kinematic2d.predicates import robot_in_region
-from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.concepts import GroundAtom, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import goal_operator, goal_predicates
 from kinder_gym.models.kinematic2d.crv import (
     ARM_JOINT,
     BASE_RADIUS,
@@ -39,7 +40,6 @@ from kinder_gym.models.kinematic2d.crv import (
     world_sampling_bounds,
 )
 from kinder_gym.motion_planning import FloatArray, path_valid
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Skill, SkillFailure
 
 
@@ -47,20 +47,10 @@ def _at_target(state: ObjectCentricState, objs: Sequence[Object]) -> bool:
     return robot_in_region(state, objs[0], objs[1])
 
 
-AtTarget = Predicate("AtTarget", (CRV_ROBOT, TARGET_REGION), _at_target)
-NotAtTarget = Predicate(
-    "NotAtTarget", (CRV_ROBOT, TARGET_REGION), lambda s, o: not _at_target(s, o)
-)
-
+AtTarget, NotAtTarget = goal_predicates("AtTarget", (CRV_ROBOT, TARGET_REGION), _at_target)
 _R = Variable("?robot", CRV_ROBOT)
 _T = Variable("?region", TARGET_REGION)
-MOVE_TO_TARGET = LiftedOperator(
-    "MoveToTarget",
-    (_R, _T),
-    preconditions=frozenset({NotAtTarget.lift([_R, _T])}),
-    add_effects=frozenset({AtTarget.lift([_R, _T])}),
-    delete_effects=frozenset({NotAtTarget.lift([_R, _T])}),
-)
+MOVE_TO_TARGET = goal_operator("MoveToTarget", (_R, _T), AtTarget, NotAtTarget, (_R, _T))
 
 
 class MoveToTargetController(CRVController):

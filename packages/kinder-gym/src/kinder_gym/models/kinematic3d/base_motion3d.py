@@ -21,10 +21,10 @@ import numpy as np
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.kinematic3d.object_types import POINT_TYPE, ROBOT_TYPE
-from kinder_gym.concepts import GroundAtom, Predicate, Variable
+from kinder_gym.concepts import GroundAtom, Variable
 from kinder_gym.model import PlanningModel
+from kinder_gym.models.hand import goal_operator, goal_predicates
 from kinder_gym.motion_planning import FloatArray, config_delta, plan_se2
-from kinder_gym.operators import LiftedOperator
 from kinder_gym.skills import Controller, Skill, SkillFailure
 
 
@@ -94,19 +94,10 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         del objs
         return bool(env.goal_reached(state))
 
-    AtTarget = Predicate("AtTarget", (ROBOT_TYPE, POINT_TYPE), at_target)
-    NotAtTarget = Predicate(
-        "NotAtTarget", (ROBOT_TYPE, POINT_TYPE), lambda s, o: not at_target(s, o)
-    )
+    AtTarget, NotAtTarget = goal_predicates("AtTarget", (ROBOT_TYPE, POINT_TYPE), at_target)
     r = Variable("?robot", ROBOT_TYPE)
     t = Variable("?target", POINT_TYPE)
-    move = LiftedOperator(
-        "MoveBaseToTarget",
-        (r, t),
-        frozenset({NotAtTarget.lift([r, t])}),
-        frozenset({AtTarget.lift([r, t])}),
-        frozenset({NotAtTarget.lift([r, t])}),
-    )
+    move = goal_operator("MoveBaseToTarget", (r, t), AtTarget, NotAtTarget, (r, t))
 
     def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
         robot = state.get_objects(ROBOT_TYPE)[0]
