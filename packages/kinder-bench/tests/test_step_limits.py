@@ -51,5 +51,6 @@ def test_measured_variants_have_the_rule_s_limit() -> None:
 def test_every_other_dynamic3d_id_has_the_default() -> None:
     measured = {row["env"] for row in _measurements()}
     for env_id in kinder_core.list_envs("Dynamic3D"):
-        if env_id not in measured:
+        # LimbRepositioning3D (pybullet) documents its own budget in kinder_garden3d.limb3d.
+        if env_id not in measured and "LimbRepositioning3D" not in env_id:
             assert gymnasium.spec(env_id).max_episode_steps == DEFAULT_LIMIT, env_id

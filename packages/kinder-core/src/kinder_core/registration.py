@@ -71,7 +71,7 @@ FAMILY_SOURCES: dict[str, FamilySource] = {
         "kinder_garden3d",
         "kinder-garden3d",
         "Shelf3D ConstrainedCupboard3D Rearrange3D SortClutteredBlocks3D SweepSimple3D "
-        "SweepIntoDrawer3D ScoopPour3D BalanceBeam3D Tossing3D Dynamo3D",
+        "SweepIntoDrawer3D ScoopPour3D BalanceBeam3D Tossing3D Dynamo3D LimbRepositioning3D",
     ),
 }
 

@@ -15,3 +15,7 @@ __all__ = ["register_kinematic3d"]
 from kinder_garden3d.dynamic3d.registration import register_dynamic3d  # noqa: E402
 
 register_dynamic3d()
+
+from kinder_garden3d.limb3d.registry import register_limb3d  # noqa: E402
+
+register_limb3d()

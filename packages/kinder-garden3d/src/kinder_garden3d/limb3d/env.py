@@ -1,0 +1,530 @@
+"""LimbRepositioning3D: drive a passive human limb to a goal configuration with joint torques."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as pb
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, ObjectCentricStateSpace, Type
+from kinder_core.state import FloatArray
+from kinder_garden3d.kinematic3d.scene import _GRIPPER_TO_FLANGE, TOOL_OFFSET, PyBulletScene
+from kinder_garden3d.limb3d.limbs import END_LINK, LIMBS, NUM_LIMB_JOINTS, LimbSpec, limb_urdf_path
+from kinder_garden3d.robot.description import RETRACT
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+NUM_ROBOT_JOINTS = 7
+
+#: The torque-controlled arm: base pose (fixed during an episode), 7 joints and their velocities.
+ROBOT_TYPE = Type(
+    "Limb3DRobot",
+    (
+        "pos_base_x",
+        "pos_base_y",
+        "pos_base_rot",
+        *(f"joint_{i}" for i in range(1, 8)),
+        *(f"joint_vel_{i}" for i in range(1, 8)),
+    ),
+)
+#: The passive limb: 6 joints, their velocities, and the goal configuration.
+LIMB_TYPE = Type(
+    "Limb3DLimb",
+    (
+        *(f"joint_{i}" for i in range(1, 7)),
+        *(f"joint_vel_{i}" for i in range(1, 7)),
+        *(f"goal_joint_{i}" for i in range(1, 7)),
+    ),
+)
+#: Static furniture (wheelchair, bed): its pose, quaternion ordered (x, y, z, w).
+FIXTURE_TYPE = Type(
+    "Limb3DFixture",
+    ("pose_x", "pose_y", "pose_z", "pose_qx", "pose_qy", "pose_qz", "pose_qw"),
+)
+ALL_TYPES = (ROBOT_TYPE, LIMB_TYPE, FIXTURE_TYPE)
+
+_R_JOINTS = slice(3, 10)
+_R_VELS = slice(10, 17)
+_L_JOINTS = slice(0, 6)
+_L_VELS = slice(6, 12)
+_L_GOAL = slice(12, 18)
+
+
+@dataclass(frozen=True)
+class LimbVariant:
+    """One (scene, limb) pair: where the limb and the robot are, and the task.
+
+    Attributes:
+        scene: ``"isolated"`` (the only scene built so far).
+        limb: A key of :data:`~kinder_garden3d.limb3d.limbs.LIMBS`.
+        limb_base_pos, limb_base_rpy: The limb's anchor (shoulder or hip) in the world.
+        init_joints: The nominal initial limb configuration a reset perturbs.
+        goal_joints: The goal limb configuration.
+        robot_base: The robot base's (x, y, yaw).
+        robot_base_z: Height of the robot base frame.
+    """
+
+    scene: str
+    limb: str
+    limb_base_pos: Vec3
+    limb_base_rpy: Vec3
+    init_joints: tuple[float, ...]
+    goal_joints: tuple[float, ...]
+    robot_base: Vec3
+    robot_base_z: float
+
+
+# Upstream's isolated tasks: one nominal right-arm start and goal, mirrored or knee-flipped for
+# the other limbs; the limb floats at (0.730, -0.396, 0.270) turned by pi about z.
+_ARM_INIT = (-0.40335719438145545, 0.05292781876657404, -0.09289427173389816, -0.5010609575327076)
+_LEG_INIT = (-0.40335719438145545, -0.44707218123342596, -0.09289427173389816, -0.5010609575327076)
+_GOAL = (-0.7, 0.0, -0.03, -0.8)
+_FREE_POS: Vec3 = (0.730, -0.396, 0.270)
+_FREE_RPY: Vec3 = (0.0, 0.0, math.pi)
+
+
+def _six(q: tuple[float, ...]) -> tuple[float, ...]:
+    return (*q, 0.0, 0.0)
+
+
+def _mirror_arm(q: tuple[float, ...]) -> tuple[float, ...]:
+    """An arm configuration mirrored across the body's sagittal plane."""
+    return (-q[0], q[1], -q[2], -q[3], -q[4], q[5])
+
+
+def _flip_knee(q: tuple[float, ...]) -> tuple[float, ...]:
+    return (q[0], q[1], q[2], -q[3], q[4], q[5])
+
+
+def _mirror_leg(q: tuple[float, ...]) -> tuple[float, ...]:
+    return (q[0], -q[1], -q[2], q[3], q[4], -q[5])
+
+
+VARIANTS: dict[str, LimbVariant] = {
+    "isolated-left-arm": LimbVariant(
+        "isolated",
+        "left-arm",
+        _FREE_POS,
+        _FREE_RPY,
+        _mirror_arm(_six(_ARM_INIT)),
+        _mirror_arm(_six(_GOAL)),
+        (1.0787, 0.1832, -0.8140),
+        -0.3948,
+    ),
+    "isolated-right-arm": LimbVariant(
+        "isolated",
+        "right-arm",
+        _FREE_POS,
+        _FREE_RPY,
+        _six(_ARM_INIT),
+        _six(_GOAL),
+        (0.3566, 0.4849, -0.6971),
+        -0.3948,
+    ),
+    "isolated-left-leg": LimbVariant(
+        "isolated",
+        "left-leg",
+        _FREE_POS,
+        _FREE_RPY,
+        _flip_knee(_six(_LEG_INIT)),
+        _flip_knee(_six(_GOAL)),
+        (0.1548, -0.1575, 2.1953),
+        -0.7948,
+    ),
+    "isolated-right-leg": LimbVariant(
+        "isolated",
+        "right-leg",
+        _FREE_POS,
+        _FREE_RPY,
+        _mirror_leg(_flip_knee(_six(_LEG_INIT))),
+        _mirror_leg(_flip_knee(_six(_GOAL))),
+        (0.4548, -0.1575, 0.1009),
+        -0.7948,
+    ),
+}
+
+#: The end effector relative to the limb's grasp frame: the gripper approaches along the grasp
+#: frame's −x axis (arms) or, for legs, turned a further −π/2 about z first; then a quarter turn
+#: about the approach axis. Quaternions (x, y, z, w).
+_ARM_GRASP_RPY: Vec3 = (0.0, -math.pi / 2, 0.0)
+_LEG_GRASP_RPY: Vec3 = (0.0, -math.pi / 2, -math.pi / 2)
+_APPROACH_SPIN_RPY: Vec3 = (0.0, 0.0, math.pi / 2)
+
+
+def _grasp_transform(arm: bool) -> tuple[Vec3, Quat]:
+    rpy = _ARM_GRASP_RPY if arm else _LEG_GRASP_RPY
+    pos, quat = pb.multiplyTransforms(
+        (0.0, 0.0, 0.0),
+        pb.getQuaternionFromEuler(rpy),
+        (0.0, 0.0, 0.0),
+        pb.getQuaternionFromEuler(_APPROACH_SPIN_RPY),
+    )
+    return (pos[0], pos[1], pos[2]), (quat[0], quat[1], quat[2], quat[3])
+
+
+def _tool_to_gripper() -> tuple[Vec3, Quat]:
+    """The gripper_base_link frame in the tool frame (see ``kinematic3d.scene.ee_pose``: the
+    tool frame is TOOL_OFFSET along the gripper's z axis, turned a quarter about it)."""
+    p, q = pb.invertTransform([0.0, 0.0, TOOL_OFFSET], list(_GRIPPER_TO_FLANGE))
+    return (p[0], p[1], p[2]), (q[0], q[1], q[2], q[3])
+
+
+@dataclass(frozen=True)
+class LimbRepositioning3DConfig:
+    """LimbRepositioning3D settings (defaults are upstream's).
+
+    Attributes:
+        torque_limit: Bound of each of the 7 joint torques (N m).
+        timestep: pybullet's fixed time step (s); one env step is one simulation step.
+        goal_atol: Summed absolute joint error (rad, continuous joints wrapped) below which the
+            goal holds.
+        init_joint_noise: Half width (rad) of the uniform perturbation of every limb joint around
+            the nominal start, intersected with the limb's range of motion.
+        robot_initial_joints: The arm configuration the grasp IK starts from.
+        ik_iterations: pybullet IK refinements toward the grasp pose at reset.
+        image_width, image_height: Size of rendered frames.
+        camera_distance, camera_yaw, camera_pitch: The orbit camera around the limb's anchor.
+    """
+
+    torque_limit: float = 1.0
+    timestep: float = 1.0 / 240.0
+    goal_atol: float = 0.1
+    init_joint_noise: float = 0.26
+    robot_initial_joints: tuple[float, ...] = RETRACT
+    ik_iterations: int = 50
+    image_width: int = 512
+    image_height: int = 512
+    camera_distance: float = 2.0
+    camera_yaw: float = 140.0
+    camera_pitch: float = -20.0
+
+    def __post_init__(self) -> None:
+        if not self.torque_limit > 0:
+            raise ValueError(f"torque_limit must be > 0, got {self.torque_limit}")
+        if not self.timestep > 0:
+            raise ValueError(f"timestep must be > 0, got {self.timestep}")
+        if not self.goal_atol > 0:
+            raise ValueError(f"goal_atol must be > 0, got {self.goal_atol}")
+        if self.init_joint_noise < 0:
+            raise ValueError(f"init_joint_noise must be >= 0, got {self.init_joint_noise}")
+        if len(self.robot_initial_joints) != NUM_ROBOT_JOINTS:
+            raise ValueError(
+                f"robot_initial_joints needs {NUM_ROBOT_JOINTS} values, got "
+                f"{len(self.robot_initial_joints)}"
+            )
+        if self.ik_iterations < 1:
+            raise ValueError(f"ik_iterations must be >= 1, got {self.ik_iterations}")
+
+
+def wrapped_joint_distance(q: NDArray[np.float64], goal: NDArray[np.float64]) -> float:
+    """Sum over the (continuous) joints of the absolute difference wrapped into [−π, π)."""
+    diff = (np.asarray(q) - np.asarray(goal) + math.pi) % (2.0 * math.pi) - math.pi
+    return float(np.sum(np.abs(diff)))
+
+
+class LimbRepositioning3DEnv(ObjectCentricEnv):
+    """Reposition a passive human limb with joint torques, its hand or foot welded to the gripper.
+
+    ## Description
+    An assistive-robotics task: the mobile manipulator's end effector is rigidly attached to the
+    grasp frame of a human limb (the palm side of the hand, or the sole of the foot) and must
+    drive the limb to a goal joint configuration by applying torques to its 7 arm joints. The
+    limb has no actuation of its own. It is a fixed-base chain of six continuous joints (a
+    three-axis shoulder or hip, an elbow or knee, a two-axis wrist or ankle) built from
+    capsules and a box, with body-segment masses of a 54.4 kg person (`limb3d/limbs.py`). The
+    robot's base stays where the variant puts it. Physics is pybullet forward dynamics at
+    240 Hz, one simulation step per env step, with gravity off and collision response disabled
+    for the robot and the limb (nothing pushes back but inertia); joint damping, link damping
+    and friction are zero and the joint motors are off. The weld is a fixed constraint at the
+    nominal grasp (a constant of the variant), so a state fully determines the next one.
+
+    Variants pair a scene with a limb: `isolated-{left,right}-{arm,leg}` (the limb floats alone
+    at (0.730, −0.396, 0.270), turned π about z; the robot stands at upstream's placement for
+    that limb).
+
+    ## Observation Space
+    A 35-D float64 vector: `robot` (17) then `limb` (18). `Limb3DRobot`: `pos_base_x,
+    pos_base_y, pos_base_rot, joint_1..joint_7, joint_vel_1..joint_vel_7`; `Limb3DLimb`:
+    `joint_1..joint_6, joint_vel_1..joint_vel_6, goal_joint_1..goal_joint_6`. All unbounded.
+
+    ## Action Space
+    A 7-D float32 Box in [−1, 1]: the torque (N m) applied to each arm joint for the step.
+
+    ## Reward
+    −1 on every step.
+
+    ## Starting State
+    Each limb joint is drawn uniformly within ±0.26 rad of the variant's nominal start,
+    intersected with the limb's anatomical range of motion (AAOS normal adult values); all
+    velocities are zero. The arm is solved by pybullet's IK, from the Kinova retract
+    configuration, for the end-effector pose at the limb's grasp frame (the weld holds whatever
+    pose the IK reaches).
+
+    ## Episode End
+    Terminates when the summed absolute joint error to the goal (each wrapped into [−π, π)) is
+    below 0.1 rad. The registered ids truncate after 2400 steps (10 s of simulated time).
+
+    ## Arguments
+    `variant` (default `"isolated-right-arm"`), `config` (a `LimbRepositioning3DConfig`),
+    `render_mode`.
+
+    ## Version History
+    * v0: first release in kinder-garden3d.
+
+    ## Deviations
+    Upstream loads mesh limbs and a Kinova URDF; here the limb is primitives (see above) and the
+    robot is the project's primitive model, so inertias differ and trajectories under the same
+    torques are not upstream's. Upstream settles the robot for 1000 steps at construction and
+    solves the grasp with IKFast; here pybullet's damped least squares solves it from the
+    retract configuration. Upstream registers no step limit; these ids use 2400.
+    """
+
+    def __init__(
+        self,
+        variant: str = "isolated-right-arm",
+        config: LimbRepositioning3DConfig | None = None,
+        render_mode: str | None = "rgb_array",
+    ) -> None:
+        if variant not in VARIANTS:
+            raise ValueError(f"Unknown variant {variant!r}; expected one of {sorted(VARIANTS)}")
+        super().__init__(render_mode=render_mode)
+        self.variant = VARIANTS[variant]
+        self.config = config or LimbRepositioning3DConfig()
+        self.limb_spec: LimbSpec = LIMBS[self.variant.limb]
+        self.robot = Object("robot", ROBOT_TYPE)
+        self.limb = Object("limb", LIMB_TYPE)
+        lim = self.config.torque_limit
+        self.action_space = spaces.Box(-lim, lim, shape=(NUM_ROBOT_JOINTS,), dtype=np.float32)
+        self.observation_space = ObjectCentricStateSpace(ALL_TYPES)
+        self.metadata["render_fps"] = round(1.0 / self.config.timestep)
+        self._scene = PyBulletScene(self.variant.robot_base_z)
+        self._generation = -1
+        self._limb_body = -1
+        self._limb_joints: list[int] = []
+        self._limb_end = -1
+        self._constraint = -1
+        self._grasp_tf = _grasp_transform(self.limb_spec.is_arm)
+
+    # -- the simulator --------------------------------------------------------------------------
+    def _client(self) -> int:
+        """The pybullet client, with the limb loaded and dynamics configured (once per client)."""
+        scene = self._scene
+        cid = scene.client
+        if self._generation == scene.generation:
+            return cid
+        v = self.variant
+        pb.setGravity(0.0, 0.0, 0.0, physicsClientId=cid)
+        pb.setPhysicsEngineParameter(fixedTimeStep=self.config.timestep, physicsClientId=cid)
+        self._limb_body = pb.loadURDF(
+            str(limb_urdf_path(v.limb)),
+            basePosition=list(v.limb_base_pos),
+            baseOrientation=pb.getQuaternionFromEuler(v.limb_base_rpy),
+            useFixedBase=True,
+            physicsClientId=cid,
+        )
+        names: dict[str, int] = {}
+        for j in range(pb.getNumJoints(self._limb_body, physicsClientId=cid)):
+            info = pb.getJointInfo(self._limb_body, j, physicsClientId=cid)
+            names[info[1].decode()] = j
+            if info[12].decode() == END_LINK:
+                self._limb_end = j
+        self._limb_joints = [names[n] for n in ("ball_x", "ball_y", "ball_z")] + [
+            names[n] for n in ("hinge", "distal_x", "distal_y")
+        ]
+        for body in (scene.robot, self._limb_body):
+            n = pb.getNumJoints(body, physicsClientId=cid)
+            pb.setJointMotorControlArray(
+                body,
+                list(range(n)),
+                pb.VELOCITY_CONTROL,
+                forces=[0.0] * n,
+                physicsClientId=cid,
+            )
+            for link in range(-1, n):
+                pb.changeDynamics(
+                    body,
+                    link,
+                    jointDamping=0.0,
+                    linearDamping=0.0,
+                    angularDamping=0.0,
+                    maxJointVelocity=5000.0,
+                    lateralFriction=0.0,
+                    spinningFriction=0.0,
+                    rollingFriction=0.0,
+                    physicsClientId=cid,
+                )
+                pb.setCollisionFilterGroupMask(body, link, 0, 0, physicsClientId=cid)
+        self._constraint = -1
+        self._generation = scene.generation
+        return cid
+
+    def _load(self, state: ObjectCentricState) -> int:
+        """Put ``state`` into the simulator and rebuild the weld from the resulting poses."""
+        cid = self._client()
+        r, limb = state[self.robot], state[self.limb]
+        scene = self._scene
+        scene.set_robot(r[:10], 0.0)
+        for idx, q, dq in zip(scene._arm_idx, r[_R_JOINTS], r[_R_VELS], strict=True):
+            pb.resetJointState(scene.robot, idx, float(q), float(dq), physicsClientId=cid)
+        for idx, q, dq in zip(self._limb_joints, limb[_L_JOINTS], limb[_L_VELS], strict=True):
+            pb.resetJointState(self._limb_body, idx, float(q), float(dq), physicsClientId=cid)
+        if self._constraint >= 0:
+            pb.removeConstraint(self._constraint, physicsClientId=cid)
+        self._constraint = self._weld(cid)
+        return cid
+
+    def _weld(self, cid: int) -> int:
+        """A fixed constraint holding the gripper at the nominal grasp: the tool frame at the
+        limb's grasp frame composed with the grasp transform. pybullet poses constraint frames
+        in the links' centre-of-mass frames, so the child frame is
+        ``inv(limb COM) · grasp offset · grasp transform · inv(tool in gripper) · gripper COM``.
+        The weld is a constant of the variant, so a state fully determines the next one."""
+        robot_link = self._scene._link_idx["gripper_base_link"]
+        rp = pb.getLinkState(self._scene.robot, robot_link, physicsClientId=cid)
+        lp = pb.getLinkState(self._limb_body, self._limb_end, physicsClientId=cid)
+        inv_lc = pb.invertTransform(lp[2], lp[3])
+        rel = pb.multiplyTransforms(*inv_lc, list(self.limb_spec.grasp_offset), [0, 0, 0, 1])
+        rel = pb.multiplyTransforms(*rel, *self._grasp_tf)
+        rel = pb.multiplyTransforms(*rel, *_tool_to_gripper())
+        rel_p, rel_q = pb.multiplyTransforms(*rel, rp[2], rp[3])
+        return int(
+            pb.createConstraint(
+                self._scene.robot,
+                robot_link,
+                self._limb_body,
+                self._limb_end,
+                pb.JOINT_FIXED,
+                [0.0, 0.0, 0.0],
+                [0.0, 0.0, 0.0],
+                list(rel_p),
+                [0.0, 0.0, 0.0, 1.0],
+                list(rel_q),
+                physicsClientId=cid,
+            )
+        )
+
+    def grasp_frame_pose(self) -> tuple[Vec3, Quat]:
+        """World pose of the limb's grasp frame in the simulator's current configuration."""
+        cid = self._client()
+        ls = pb.getLinkState(
+            self._limb_body, self._limb_end, computeForwardKinematics=True, physicsClientId=cid
+        )
+        pos, quat = pb.multiplyTransforms(
+            ls[4], ls[5], list(self.limb_spec.grasp_offset), [0.0, 0.0, 0.0, 1.0]
+        )
+        return (pos[0], pos[1], pos[2]), (quat[0], quat[1], quat[2], quat[3])
+
+    def _solve_grasp(self, limb_joints: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Arm joints that put the end effector at the grasp frame composed with the grasp
+        transform, by iterated pybullet IK from ``robot_initial_joints``."""
+        cid = self._client()
+        scene = self._scene
+        for idx, q in zip(self._limb_joints, limb_joints, strict=True):
+            pb.resetJointState(self._limb_body, idx, float(q), 0.0, physicsClientId=cid)
+        gp, gq = self.grasp_frame_pose()
+        tool_p, tool_q = pb.multiplyTransforms(gp, gq, *self._grasp_tf)
+        target_p, target_q = pb.multiplyTransforms(tool_p, tool_q, *_tool_to_gripper())
+        v = self.variant
+        q = np.array(self.config.robot_initial_joints, dtype=np.float64)
+        scene.set_robot(np.array([*v.robot_base, *q]), 0.0)
+        link = scene._link_idx["gripper_base_link"]
+        movable = [
+            j
+            for j in range(pb.getNumJoints(scene.robot, physicsClientId=cid))
+            if pb.getJointInfo(scene.robot, j, physicsClientId=cid)[2] != pb.JOINT_FIXED
+        ]
+        arm_pos = [movable.index(j) for j in scene._arm_idx]
+        for _ in range(self.config.ik_iterations):
+            sol = pb.calculateInverseKinematics(
+                scene.robot,
+                link,
+                target_p,
+                target_q,
+                maxNumIterations=100,
+                residualThreshold=1e-6,
+                physicsClientId=cid,
+            )
+            q = np.array([sol[i] for i in arm_pos], dtype=np.float64)
+            scene.set_robot(np.array([*v.robot_base, *q]), 0.0)
+        return q
+
+    # -- the contract ---------------------------------------------------------------------------
+    def box_objects(self) -> list[Object]:
+        return [self.robot, self.limb]
+
+    def limb_joint_limits(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The limb's range of motion (rad), which bounds the reset perturbation."""
+        lo, hi = self.limb_spec.limits_rad
+        return np.array(lo), np.array(hi)
+
+    def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
+        v, cfg = self.variant, self.config
+        nominal = np.array(v.init_joints)
+        lo, hi = self.limb_joint_limits()
+        noise = cfg.init_joint_noise
+        limb_q = rng.uniform(np.maximum(nominal - noise, lo), np.minimum(nominal + noise, hi))
+        arm_q = self._solve_grasp(limb_q)
+        return ObjectCentricState.from_features(
+            {
+                self.robot: [*v.robot_base, *arm_q, *([0.0] * NUM_ROBOT_JOINTS)],
+                self.limb: [*limb_q, *([0.0] * NUM_LIMB_JOINTS), *v.goal_joints],
+            }
+        )
+
+    def _transition(self, state: ObjectCentricState, action: FloatArray) -> ObjectCentricState:
+        cid = self._load(state)
+        scene = self._scene
+        pb.setJointMotorControlArray(
+            scene.robot,
+            scene._arm_idx,
+            pb.TORQUE_CONTROL,
+            forces=[float(t) for t in action],
+            physicsClientId=cid,
+        )
+        pb.setJointMotorControlArray(
+            self._limb_body,
+            self._limb_joints,
+            pb.TORQUE_CONTROL,
+            forces=[0.0] * NUM_LIMB_JOINTS,
+            physicsClientId=cid,
+        )
+        pb.stepSimulation(physicsClientId=cid)
+        arm = pb.getJointStates(scene.robot, scene._arm_idx, physicsClientId=cid)
+        limb = pb.getJointStates(self._limb_body, self._limb_joints, physicsClientId=cid)
+        r, lf = state[self.robot], state[self.limb]
+        r[_R_JOINTS] = [s[0] for s in arm]
+        r[_R_VELS] = [s[1] for s in arm]
+        lf[_L_JOINTS] = [s[0] for s in limb]
+        lf[_L_VELS] = [s[1] for s in limb]
+        state[self.robot], state[self.limb] = r, lf
+        return state
+
+    def distance_to_goal(self, state: ObjectCentricState) -> float:
+        """Summed wrapped joint error of the limb to its goal (rad)."""
+        f = state[self.limb]
+        return wrapped_joint_distance(f[_L_JOINTS], f[_L_GOAL])
+
+    def goal_reached(self, state: ObjectCentricState) -> bool:
+        return self.distance_to_goal(state) < self.config.goal_atol
+
+    def _render_state(self, state: ObjectCentricState) -> NDArray[np.uint8]:
+        cfg = self.config
+        self._load(state)
+        return self._scene.capture_orbit(
+            self.variant.limb_base_pos,
+            cfg.camera_distance,
+            cfg.camera_yaw,
+            cfg.camera_pitch,
+            cfg.image_width,
+            cfg.image_height,
+        )
+
+    def close(self) -> None:
+        """Release the pybullet client."""
+        self._scene.close()
+        self._generation = -1
+        super().close()

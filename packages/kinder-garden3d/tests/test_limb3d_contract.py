@@ -1,0 +1,149 @@
+"""LimbRepositioning3D: every id passes the kinder-core test kit, and the task's mechanics hold
+(upstream's spaces, the weld, the goal test, the reset distribution)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as pb
+import pytest
+
+import kinder_core
+import kinder_garden3d  # noqa: F401  (registers the ids)
+from kinder_core.testing import check_cross_process_determinism, check_kinder_env
+from kinder_garden3d.limb3d.env import (
+    VARIANTS,
+    LimbRepositioning3DConfig,
+    LimbRepositioning3DEnv,
+    wrapped_joint_distance,
+)
+from kinder_garden3d.limb3d.limbs import LIMBS
+
+LIMB_IDS = [i for i in kinder_core.list_envs("Dynamic3D") if "LimbRepositioning3D" in i]
+
+#: Upstream 0.2.5's features (kinder/envs/dynamic3d/limb_object_types.py), in vector order.
+UPSTREAM_ROBOT = [
+    "pos_base_x",
+    "pos_base_y",
+    "pos_base_rot",
+    *(f"joint_{i}" for i in range(1, 8)),
+    *(f"joint_vel_{i}" for i in range(1, 8)),
+]
+UPSTREAM_LIMB = [
+    *(f"joint_{i}" for i in range(1, 7)),
+    *(f"joint_vel_{i}" for i in range(1, 7)),
+    *(f"goal_joint_{i}" for i in range(1, 7)),
+]
+
+
+def test_ids_and_step_limit():
+    assert sorted(LIMB_IDS) == sorted(
+        f"kinder/LimbRepositioning3D-isolated-{side}-{limb}-v0"
+        for side in ("left", "right")
+        for limb in ("arm", "leg")
+    )
+    for env_id in LIMB_IDS:
+        assert kinder_core.make(env_id).spec.max_episode_steps == 2400
+
+
+@pytest.mark.parametrize("env_id", LIMB_IDS)
+def test_kinder_test_kit(env_id):
+    check_kinder_env(env_id)
+
+
+@pytest.mark.parametrize("env_id", LIMB_IDS)
+def test_spaces_are_upstreams(env_id):
+    env = kinder_core.make(env_id)
+    try:
+        box = env.get_wrapper_attr("box")
+        assert [(o.name, o.type.name, list(o.type.features)) for o in box.objects] == [
+            ("robot", "Limb3DRobot", UPSTREAM_ROBOT),
+            ("limb", "Limb3DLimb", UPSTREAM_LIMB),
+        ]
+        assert env.observation_space.shape == (35,)
+        assert np.all(np.isinf(env.observation_space.low))
+        assert env.action_space.shape == (7,) and env.action_space.dtype == np.float32
+        assert np.all(env.action_space.low == -1.0) and np.all(env.action_space.high == 1.0)
+    finally:
+        env.close()
+
+
+def test_cross_process_determinism():
+    check_cross_process_determinism("kinder/LimbRepositioning3D-isolated-left-leg-v0")
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_reset_grasps_the_limb_and_the_weld_holds(variant):
+    env = LimbRepositioning3DEnv(variant)
+    try:
+        state, _ = env.reset(seed=1000)
+        v = VARIANTS[variant]
+        limb = state[env.limb]
+        lo, hi = env.limb_joint_limits()
+        nominal = np.array(v.init_joints)
+        assert np.all(limb[:6] >= np.maximum(nominal - 0.26, lo))
+        assert np.all(limb[:6] <= np.minimum(nominal + 0.26, hi))
+        assert np.array_equal(limb[12:18], v.goal_joints)
+        assert np.array_equal(state[env.robot][:3], v.robot_base)
+
+        def grasp_error() -> float:
+            gp, gq = env.grasp_frame_pose()
+            tool_p, _ = pb.multiplyTransforms(gp, gq, *env._grasp_tf)
+            return float(np.linalg.norm(np.array(tool_p) - env._scene.ee_pose()[0]))
+
+        env._load(state)
+        assert grasp_error() < 1e-4
+        rng = np.random.default_rng(1000)
+        for _ in range(100):
+            state, *_ = env.step(rng.uniform(-1.0, 1.0, 7))
+        env._load(state)
+        assert grasp_error() < 5e-3
+        assert not np.allclose(state[env.limb][:6], limb[:6])  # the torques moved the limb
+    finally:
+        env.close()
+
+
+def test_goal_test_wraps_the_continuous_joints():
+    env = LimbRepositioning3DEnv("isolated-right-arm")
+    try:
+        state, _ = env.reset(seed=1001)
+        goal = np.array(VARIANTS["isolated-right-arm"].goal_joints)
+        near = state.copy()
+        near[env.limb][:6] = goal + np.array([0.05, 0.0, 0.0, 0.0, 0.0, 2.0 * math.pi])
+        far = state.copy()
+        far[env.limb][:6] = goal + np.array([0.05, 0.06, 0.0, 0.0, 0.0, 0.0])
+        assert env.goal_reached(near) and not env.goal_reached(far)
+        assert wrapped_joint_distance(goal, goal + 2.0 * math.pi) == pytest.approx(0.0, abs=1e-9)
+    finally:
+        env.close()
+
+
+def test_reset_distribution_covers_the_noise_box():
+    env = LimbRepositioning3DEnv("isolated-left-leg", LimbRepositioning3DConfig(ik_iterations=1))
+    try:
+        draws = np.array([env.reset(seed=s)[0][env.limb][:6] for s in range(1000, 1040)])
+    finally:
+        env.close()
+    nominal = np.array(VARIANTS["isolated-left-leg"].init_joints)
+    lo, hi = (np.array(v) for v in LIMBS["left-leg"].limits_rad)
+    low, high = np.maximum(nominal - 0.26, lo), np.minimum(nominal + 0.26, hi)
+    assert np.all(draws >= low) and np.all(draws <= high)
+    # Forty uniform draws span most of each joint's interval.
+    assert np.all(draws.max(axis=0) - draws.min(axis=0) > 0.7 * (high - low))
+
+
+def test_bad_configuration_and_variant_are_rejected():
+    with pytest.raises(ValueError, match="Unknown variant"):
+        LimbRepositioning3DEnv("isolated-left-tail")
+    with pytest.raises(ValueError, match="torque_limit"):
+        LimbRepositioning3DConfig(torque_limit=0.0)
+
+
+def test_stable_baselines3_env_checker():
+    sb3_env_util = pytest.importorskip("stable_baselines3.common.env_checker")
+    env = kinder_core.make("kinder/LimbRepositioning3D-isolated-right-arm-v0")
+    try:
+        sb3_env_util.check_env(env, warn=True, skip_render_check=True)
+    finally:
+        env.close()
