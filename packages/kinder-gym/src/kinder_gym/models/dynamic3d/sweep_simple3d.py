@@ -65,8 +65,8 @@ scene also 5 of 5 on this scene); o5 0 of 5 (no plan within the 60 s budget: a b
 about 330–500 actions, a pick about 70, and the planner simulates them all; the carrying model
 found plans for 4 of 5 here, at about 300 actions a block); o50 (left side) 0 of 1.
 Planner-free, six seeds (1000–1005): the sweep reached the goal on all six, one after a second
-draw. The step
-limits of o5, o10 and o50 were set from the carrying skills' need (about 260 actions a block).
+draw. The step limits of o5, o10 and o50 were set from the carrying skills' need (about 260
+actions a block).
 
 Imports kinder_garden3d (the ``[3d]`` extra).
 
