@@ -35,8 +35,6 @@ from gymnasium import spaces
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.kinematic3d.geometry import compose
 from kinder_garden3d.kinematic3d.kinematic_cylinder_shelf3d import KinematicCylinderShelf3DConfig
-from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE
-from kinder_gym.concepts import Predicate
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.kinematic3d.pick_release import floor_pick_model
 from kinder_gym.models.kinematic3d.tidybot import (
@@ -189,15 +187,10 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         rest = float(state[c][11])
         return any(abs(z - (top + rest)) <= cfg.on_shelf_z_tolerance for top in tops)
 
+    cylinders = list(env.cylinders)  # type: ignore[attr-defined]
+    skills = (SidePickController, SidePlaceController)
     return floor_pick_model(
-        env,
-        "kinematic_cylinder_shelf3d",
-        list(env.cylinders),  # type: ignore[attr-defined]
-        "?cylinder",
-        Predicate("OnShelf", (CUBOID_TYPE,)),
-        on_shelf,
-        SidePickController,
-        SidePlaceController,
+        env, "kinematic_cylinder_shelf3d", cylinders, "?cylinder", "OnShelf", on_shelf, skills
     )
 
 

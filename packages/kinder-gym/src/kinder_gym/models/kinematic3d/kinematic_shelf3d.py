@@ -35,14 +35,13 @@ from collections.abc import Sequence
 import numpy as np
 from gymnasium import spaces
 
-from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_core import ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.kinematic3d.kinematic_shelf3d import KinematicShelf3DConfig
-from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE
-from kinder_gym.concepts import Predicate
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.kinematic3d.pick_release import (
     BlockPickController,
     ReleaseController,
+    centre_at_least,
     floor_pick_model,
 )
 from kinder_gym.models.kinematic3d.tidybot import (
@@ -99,21 +98,10 @@ class ShelfPlaceController(ReleaseController):
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The KinematicShelf3D planning model (any number of blocks)."""
     cfg = env.config  # type: ignore[attr-defined]
-    on_shelf_z = cfg.shelf_pos[2] + cfg.shelf.spacing - cfg.on_shelf_z_tolerance
-
-    def on_shelf(state: ObjectCentricState, block: Object) -> bool:
-        return bool(state.get(block, "pose_z") >= on_shelf_z)
-
-    return floor_pick_model(
-        env,
-        "kinematic_shelf3d",
-        list(env.cubes),  # type: ignore[attr-defined]
-        "?block",
-        Predicate("OnShelf", (CUBOID_TYPE,)),
-        on_shelf,
-        BlockPickController,
-        ShelfPlaceController,
-    )
+    on_shelf = centre_at_least(cfg.shelf_pos[2] + cfg.shelf.spacing - cfg.on_shelf_z_tolerance)
+    cubes = list(env.cubes)  # type: ignore[attr-defined]
+    skills = (BlockPickController, ShelfPlaceController)
+    return floor_pick_model(env, "kinematic_shelf3d", cubes, "?block", "OnShelf", on_shelf, skills)
 
 
 __all__: Sequence[str] = ["ShelfPlaceController", "create_model"]

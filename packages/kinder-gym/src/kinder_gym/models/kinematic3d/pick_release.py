@@ -74,28 +74,40 @@ class ReleaseController(ReachController):
         return self._sequence(state, base_goal, ee_pos, ee_quat, 1.0, salt=2, approach=approach)
 
 
+def centre_at_least(z: float) -> Callable[[ObjectCentricState, Object], bool]:
+    """The test "the object's centre is at height ``z`` or above" (KinematicShelf3D's on-shelf
+    test and PrplLab3D's goal test, each with its own height)."""
+
+    def test(state: ObjectCentricState, obj: Object) -> bool:
+        return bool(state.get(obj, "pose_z") >= z)
+
+    return test
+
+
 def floor_pick_model(
     env: ObjectCentricEnv,
     name: str,
     items: Sequence[Object],
     item_var: str,
-    placed: Predicate,
+    placed_name: str,
     is_placed: Callable[[ObjectCentricState, Object], bool],
-    pick_controller: type[Controller],
-    place_controller: type[Controller],
+    controllers: tuple[type[Controller], type[Controller]],
     place_name: str = "Place",
 ) -> PlanningModel:
-    """A planning model that picks every item off the floor and puts it where ``placed`` holds.
+    """A planning model that picks every item off the floor and puts it where ``is_placed``
+    says it is placed.
 
-    Concepts: ``HandEmpty(robot)`` / ``Holding(robot, item)``; ``placed(item)`` when the item is
-    not held and ``is_placed`` says so; ``OnFloor(item)`` when it is neither. Operators:
+    Concepts: ``HandEmpty(robot)`` / ``Holding(robot, item)``; ``placed_name(item)`` when the
+    item is not held and ``is_placed`` says so; ``OnFloor(item)`` when it is neither. Operators:
     ``Pick(?robot, item_var)`` (pre HandEmpty, OnFloor; add Holding; delete HandEmpty, OnFloor)
-    and ``place_name(?robot, item_var)`` (pre Holding; add HandEmpty, ``placed``; delete
-    Holding), grounded on the items only. Goal: every item ``placed`` and ``HandEmpty``.
+    and ``place_name(?robot, item_var)`` (pre Holding; add HandEmpty, ``placed_name``; delete
+    Holding), grounded on the items only, with the skills of ``controllers`` (the pick's, the
+    place's). Goal: every item ``placed_name`` and ``HandEmpty``.
     """
     robot_obj: Object = env.robot  # type: ignore[attr-defined]
     HandEmpty, Holding = hand_predicates()
     OnFloor = Predicate("OnFloor", (CUBOID_TYPE,))
+    placed = Predicate(placed_name, (CUBOID_TYPE,))
 
     def resting(state: ObjectCentricState, item: Object) -> GroundAtom:
         return placed.ground([item]) if is_placed(state, item) else OnFloor.ground([item])
@@ -119,7 +131,7 @@ def floor_pick_model(
         env=env,
         types=(ROBOT_TYPE, CUBOID_TYPE),
         predicates=(HandEmpty, Holding, OnFloor, placed),
-        skills=(Skill(pick, pick_controller, env), Skill(place, place_controller, env)),
+        skills=(Skill(pick, controllers[0], env), Skill(place, controllers[1], env)),
         goal_fn=goal,
         abstraction_fn=abstraction,
         max_skill_horizon=300,
@@ -132,5 +144,6 @@ __all__: Sequence[str] = [
     "PLACE_APPROACH",
     "BlockPickController",
     "ReleaseController",
+    "centre_at_least",
     "floor_pick_model",
 ]

@@ -28,14 +28,13 @@ from collections.abc import Sequence
 import numpy as np
 from gymnasium import spaces
 
-from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
-from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE
+from kinder_core import ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.kinematic3d.prpl_lab3d import PrplLab3DConfig
-from kinder_gym.concepts import Predicate
 from kinder_gym.model import PlanningModel
 from kinder_gym.models.kinematic3d.pick_release import (
     BlockPickController,
     ReleaseController,
+    centre_at_least,
     floor_pick_model,
 )
 from kinder_gym.models.kinematic3d.tidybot import (
@@ -79,21 +78,11 @@ class RaiseController(ReleaseController):
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The PrplLab3D planning model (any number of cubes)."""
     cfg = env.config  # type: ignore[attr-defined]
-    goal_z = cfg.counter_top_z - cfg.goal_below_counter
-
-    def raised(state: ObjectCentricState, cube: Object) -> bool:
-        return bool(state.get(cube, "pose_z") >= goal_z)
-
+    raised = centre_at_least(cfg.counter_top_z - cfg.goal_below_counter)
+    cubes = list(env.cubes)  # type: ignore[attr-defined]
+    skills = (BlockPickController, RaiseController)
     return floor_pick_model(
-        env,
-        "prpl_lab3d",
-        list(env.cubes),  # type: ignore[attr-defined]
-        "?cube",
-        Predicate("Raised", (CUBOID_TYPE,)),
-        raised,
-        BlockPickController,
-        RaiseController,
-        place_name="Raise",
+        env, "prpl_lab3d", cubes, "?cube", "Raised", raised, skills, place_name="Raise"
     )
 
 
