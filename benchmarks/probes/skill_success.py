@@ -22,8 +22,8 @@ parameter samples from its own sampler:
   operator on that object (Place, Drop); an object whose Pick, or whose place after it, fails
   all its samples waits for the next pass, and a place after which no Pick works is drawn
   again, as the planner would backtrack; an object that reached its goal with another one (a
-  neighbour carried along) is skipped (SweepSimple3D-oN, SortClutteredBlocks3D bins and
-  bowls); no step limit (the actions are counted, to size a variant's step budget).
+  neighbour carried along) is skipped (SortClutteredBlocks3D bins and bowls); no step limit
+  (the actions are counted, to size a variant's step budget).
 * ``scoop``: GraspScoop, then ScoopAndPour within what is left of the episode's step limit
   (DynScoopPour2D-oN), one parameter sample each, so its counts are single-sample rates.
 
@@ -36,7 +36,7 @@ Usage:
     python benchmarks/probes/skill_success.py cupboard --seeds 1000-1009
     python benchmarks/probes/skill_success.py pour --env kinder/ScoopPour3D-o10-v0 --seeds 1000-1011
     python benchmarks/probes/skill_success.py pickplace \\
-        --env kinder/SweepSimple3D-o5-<instruction>-v0
+        --env kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bins-v0
 
 A step counts as the planner counts it (``abstract_match``): the predicted abstract state, or
 one with extra atoms of the model's monotone predicates. ``--verbose`` prints a line per skill
@@ -97,8 +97,7 @@ def main(argv: list[str] | None = None) -> None:
         "scoop": "kinder/DynScoopPour2D-o10-v0",
         "cupboard": "kinder/SortClutteredBlocks3D-o12-sort_the_blocks_into_the_cupboard-v0",
         "pour": "kinder/ScoopPour3D-o10-v0",
-        "pickplace": "kinder/SweepSimple3D-o5-sweep_the_blocks_to_the_left_side_of_the_kitchen"
-        "_island-v0",
+        "pickplace": "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bins-v0",
     }[args.model]
     kwargs: dict[str, Any] = {}
     if args.contacts:
