@@ -39,7 +39,8 @@ UPSTREAM_LIMB = [
 
 def test_ids_and_step_limit():
     assert sorted(LIMB_IDS) == sorted(
-        f"kinder/LimbRepositioning3D-isolated-{side}-{limb}-v0"
+        f"kinder/LimbRepositioning3D-{scene}-{side}-{limb}-v0"
+        for scene in ("isolated", "human")
         for side in ("left", "right")
         for limb in ("arm", "leg")
     )
@@ -145,5 +146,25 @@ def test_stable_baselines3_env_checker():
     env = kinder_core.make("kinder/LimbRepositioning3D-isolated-right-arm-v0")
     try:
         sb3_env_util.check_env(env, warn=True, skip_render_check=True)
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("limb", ["right-arm", "left-leg"])
+def test_human_scene_resets_keep_the_limb_out_of_the_body(limb):
+    env = LimbRepositioning3DEnv(f"human-{limb}")
+    try:
+        env.reset(seed=1000)
+        assert len(env._obstacles) == 5  # torso, head, three other limbs
+        tol = env.config.init_max_penetration
+        nominal = np.array(VARIANTS[f"human-{limb}"].init_joints)
+        assert env.limb_penetration(nominal) == 0.0
+        for seed in range(1000, 1010):
+            state, _ = env.reset(seed=seed)
+            assert env.limb_penetration(state[env.limb][:6]) > -tol
+        # Swinging the limb 1 rad about the ball joint's y axis drives it into the body.
+        into_body = nominal.copy()
+        into_body[1] += -1.0 if limb == "right-arm" else 1.0
+        assert env.limb_penetration(into_body) < -0.1
     finally:
         env.close()

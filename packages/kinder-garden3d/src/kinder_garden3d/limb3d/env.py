@@ -13,7 +13,14 @@ from numpy.typing import NDArray
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState, ObjectCentricStateSpace, Type
 from kinder_core.state import FloatArray
 from kinder_garden3d.kinematic3d.scene import _GRIPPER_TO_FLANGE, TOOL_OFFSET, PyBulletScene
-from kinder_garden3d.limb3d.limbs import END_LINK, LIMBS, NUM_LIMB_JOINTS, LimbSpec, limb_urdf_path
+from kinder_garden3d.limb3d.limbs import (
+    END_LINK,
+    LIMBS,
+    NUM_LIMB_JOINTS,
+    SKIN,
+    LimbSpec,
+    limb_urdf_path,
+)
 from kinder_garden3d.robot.description import RETRACT
 
 Vec3 = tuple[float, float, float]
@@ -59,7 +66,8 @@ class LimbVariant:
     """One (scene, limb) pair: where the limb and the robot are, and the task.
 
     Attributes:
-        scene: ``"isolated"`` (the only scene built so far).
+        scene: ``"isolated"`` (the limb alone) or ``"human"`` (the limb attached to a torso with
+            a head and the three other limbs, all static at zero joint angles).
         limb: A key of :data:`~kinder_garden3d.limb3d.limbs.LIMBS`.
         limb_base_pos, limb_base_rpy: The limb's anchor (shoulder or hip) in the world.
         init_joints: The nominal initial limb configuration a reset perturbs.
@@ -147,6 +155,38 @@ VARIANTS: dict[str, LimbVariant] = {
     ),
 }
 
+#: Upstream's robot placements for the human scene (the limb sits where it floats in the
+#: isolated scene; the torso is placed behind it).
+_HUMAN_ROBOT: dict[str, tuple[Vec3, float]] = {
+    "left-arm": ((0.8787, 0.1832, -0.8140), -0.3948),
+    "right-arm": ((0.3566, 0.4849, -0.6971), -0.3948),
+    "left-leg": ((0.1651, 0.4351, 0.4988), -0.7948),
+    "right-leg": ((0.4126, 0.1349, -0.5421), -0.7948),
+}
+for _limb, (_base, _z) in _HUMAN_ROBOT.items():
+    _iso = VARIANTS[f"isolated-{_limb}"]
+    VARIANTS[f"human-{_limb}"] = LimbVariant(
+        "human", _limb, _FREE_POS, _FREE_RPY, _iso.init_joints, _iso.goal_joints, _base, _z
+    )
+
+#: Where each limb attaches in the torso frame (no rotation): shoulders and hips.
+TORSO_TO_LIMB: dict[str, Vec3] = {
+    "left-arm": (0.24, 0.048, 0.45),
+    "right-arm": (-0.24, 0.048, 0.45),
+    "left-leg": (0.11, 0.0, 0.0),
+    "right-leg": (-0.11, 0.0, 0.0),
+}
+#: The torso (a box from the hips to the shoulders) and the head (a sphere), in the torso frame.
+TORSO_CENTER: Vec3 = (0.0, 0.01, 0.23)
+TORSO_HALF: Vec3 = (0.17, 0.12, 0.32)
+HEAD_CENTER: Vec3 = (0.0, 0.02, 0.68)
+HEAD_RADIUS = 0.1
+#: Reset draws before falling back to the nominal start, and the shrink of the noise per draw.
+MAX_INIT_DRAWS = 20
+INIT_NOISE_DECAY = 0.75
+#: Distances are queried within this radius and saturate at it.
+CLEARANCE_RADIUS = 0.5
+
 #: The end effector relative to the limb's grasp frame: the gripper approaches along the grasp
 #: frame's −x axis (arms) or, for legs, turned a further −π/2 about z first; then a quarter turn
 #: about the approach axis. Quaternions (x, y, z, w).
@@ -184,6 +224,8 @@ class LimbRepositioning3DConfig:
             goal holds.
         init_joint_noise: Half width (rad) of the uniform perturbation of every limb joint around
             the nominal start, intersected with the limb's range of motion.
+        init_max_penetration: How much deeper (m) than at the nominal start a drawn limb may
+            overlap the rest of the body (human scene); deeper draws are redrawn.
         robot_initial_joints: The arm configuration the grasp IK starts from.
         ik_iterations: pybullet IK refinements toward the grasp pose at reset.
         image_width, image_height: Size of rendered frames.
@@ -194,6 +236,7 @@ class LimbRepositioning3DConfig:
     timestep: float = 1.0 / 240.0
     goal_atol: float = 0.1
     init_joint_noise: float = 0.26
+    init_max_penetration: float = 0.002
     robot_initial_joints: tuple[float, ...] = RETRACT
     ik_iterations: int = 50
     image_width: int = 512
@@ -243,8 +286,10 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
     nominal grasp (a constant of the variant), so a state fully determines the next one.
 
     Variants pair a scene with a limb: `isolated-{left,right}-{arm,leg}` (the limb floats alone
-    at (0.730, −0.396, 0.270), turned π about z; the robot stands at upstream's placement for
-    that limb).
+    at (0.730, −0.396, 0.270), turned π about z) and `human-{left,right}-{arm,leg}` (the same
+    limb, attached to a static torso (a box), head (a sphere) and the three other limbs at zero
+    joint angles; they are drawn, and the reset keeps the limb out of them, but nothing
+    collides). The robot stands at upstream's placement for each variant.
 
     ## Observation Space
     A 35-D float64 vector: `robot` (17) then `limb` (18). `Limb3DRobot`: `pos_base_x,
@@ -259,7 +304,9 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
 
     ## Starting State
     Each limb joint is drawn uniformly within ±0.26 rad of the variant's nominal start,
-    intersected with the limb's anatomical range of motion (AAOS normal adult values); all
+    intersected with the limb's anatomical range of motion (AAOS normal adult values); a draw
+    that overlaps the rest of the body more than 2 mm deeper than the nominal start does is
+    redrawn with the half width shrunk by 0.75 (up to 20 draws, then the nominal start); all
     velocities are zero. The arm is solved by pybullet's IK, from the Kinova retract
     configuration, for the end-effector pose at the limb's grasp frame (the weld holds whatever
     pose the IK reaches).
@@ -307,6 +354,8 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         self._limb_joints: list[int] = []
         self._limb_end = -1
         self._constraint = -1
+        self._obstacles: list[int] = []
+        self._rest_clearance: list[float] = []
         self._grasp_tf = _grasp_transform(self.limb_spec.is_arm)
 
     # -- the simulator --------------------------------------------------------------------------
@@ -358,9 +407,80 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
                     physicsClientId=cid,
                 )
                 pb.setCollisionFilterGroupMask(body, link, 0, 0, physicsClientId=cid)
+        self._obstacles = self._build_body(cid) if v.scene == "human" else []
+        self._set_limb(cid, np.array(v.init_joints))
+        self._rest_clearance = [self._distance(cid, b) for b in self._obstacles]
         self._constraint = -1
         self._generation = scene.generation
         return cid
+
+    def torso_pose(self) -> tuple[Vec3, Quat]:
+        """The torso's world pose in the human scene: behind the limb's anchor by the limb's
+        attachment offset."""
+        v = self.variant
+        inv = pb.invertTransform(TORSO_TO_LIMB[v.limb], [0.0, 0.0, 0.0, 1.0])
+        p, q = pb.multiplyTransforms(
+            v.limb_base_pos, pb.getQuaternionFromEuler(v.limb_base_rpy), *inv
+        )
+        return (p[0], p[1], p[2]), (q[0], q[1], q[2], q[3])
+
+    def _build_body(self, cid: int) -> list[int]:
+        """The torso, head and the three other limbs (static; the limb's obstacles)."""
+        torso_p, torso_q = self.torso_pose()
+        rgba = list(SKIN)
+        bodies = []
+        for center, shape in (
+            (TORSO_CENTER, ("box", TORSO_HALF)),
+            (HEAD_CENTER, ("sphere", HEAD_RADIUS)),
+        ):
+            if shape[0] == "box":
+                col = pb.createCollisionShape(
+                    pb.GEOM_BOX, halfExtents=list(TORSO_HALF), physicsClientId=cid
+                )
+                vis = pb.createVisualShape(
+                    pb.GEOM_BOX, halfExtents=list(TORSO_HALF), rgbaColor=rgba, physicsClientId=cid
+                )
+            else:
+                col = pb.createCollisionShape(
+                    pb.GEOM_SPHERE, radius=HEAD_RADIUS, physicsClientId=cid
+                )
+                vis = pb.createVisualShape(
+                    pb.GEOM_SPHERE, radius=HEAD_RADIUS, rgbaColor=rgba, physicsClientId=cid
+                )
+            pos, quat = pb.multiplyTransforms(torso_p, torso_q, center, [0.0, 0.0, 0.0, 1.0])
+            bodies.append(pb.createMultiBody(0.0, col, vis, pos, quat, physicsClientId=cid))
+        for other, offset in TORSO_TO_LIMB.items():
+            if other == self.variant.limb:
+                continue
+            pos, quat = pb.multiplyTransforms(torso_p, torso_q, offset, [0.0, 0.0, 0.0, 1.0])
+            body = pb.loadURDF(
+                str(limb_urdf_path(other)), pos, quat, useFixedBase=True, physicsClientId=cid
+            )
+            bodies.append(body)
+        for body in bodies:
+            for link in range(-1, pb.getNumJoints(body, physicsClientId=cid)):
+                pb.setCollisionFilterGroupMask(body, link, 0, 0, physicsClientId=cid)
+        return bodies
+
+    def _set_limb(self, cid: int, joints: NDArray[np.float64]) -> None:
+        for idx, q in zip(self._limb_joints, joints, strict=True):
+            pb.resetJointState(self._limb_body, idx, float(q), 0.0, physicsClientId=cid)
+
+    def _distance(self, cid: int, body: int) -> float:
+        """The limb's closest distance to ``body`` (negative: overlap), saturating at
+        CLEARANCE_RADIUS. Distance queries ignore the collision filters."""
+        points = pb.getClosestPoints(self._limb_body, body, CLEARANCE_RADIUS, physicsClientId=cid)
+        return min((pt[8] for pt in points), default=CLEARANCE_RADIUS)
+
+    def limb_penetration(self, limb_joints: NDArray[np.float64]) -> float:
+        """How much deeper (m, as a negative number; 0 if not) the limb at ``limb_joints``
+        overlaps the rest of the body than it does at the nominal start."""
+        cid = self._client()
+        self._set_limb(cid, limb_joints)
+        worst = 0.0
+        for body, rest in zip(self._obstacles, self._rest_clearance, strict=True):
+            worst = min(worst, self._distance(cid, body) - rest)
+        return worst
 
     def _load(self, state: ObjectCentricState) -> int:
         """Put ``state`` into the simulator and rebuild the weld from the resulting poses."""
@@ -465,8 +585,13 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         v, cfg = self.variant, self.config
         nominal = np.array(v.init_joints)
         lo, hi = self.limb_joint_limits()
-        noise = cfg.init_joint_noise
-        limb_q = rng.uniform(np.maximum(nominal - noise, lo), np.minimum(nominal + noise, hi))
+        limb_q = nominal
+        for attempt in range(MAX_INIT_DRAWS):
+            noise = cfg.init_joint_noise * INIT_NOISE_DECAY**attempt
+            draw = rng.uniform(np.maximum(nominal - noise, lo), np.minimum(nominal + noise, hi))
+            if self.limb_penetration(draw) > -cfg.init_max_penetration:
+                limb_q = draw
+                break
         arm_q = self._solve_grasp(limb_q)
         return ObjectCentricState.from_features(
             {
