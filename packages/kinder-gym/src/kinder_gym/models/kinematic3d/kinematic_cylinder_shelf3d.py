@@ -36,11 +36,11 @@ from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.kinematic3d.geometry import compose
 from kinder_garden3d.kinematic3d.kinematic_cylinder_shelf3d import KinematicCylinderShelf3DConfig
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.kinematic3d.pick_release import floor_pick_model
+from kinder_gym.models.kinematic3d.pick_release import board_spot, floor_pick_model
 from kinder_gym.models.kinematic3d.tidybot import (
-    PLANNING_MARGIN,
     ConfigWaypoint,
     ReachController,
+    bounds_around,
     release_pose,
 )
 from kinder_gym.motion_planning import FloatArray
@@ -63,25 +63,14 @@ def side_quat(heading: float) -> FloatArray:
     return np.array([-s * h, c * h, s * h, c * h])
 
 
-def _config(controller: ReachController) -> KinematicCylinderShelf3DConfig:
-    cfg = controller.context.config
-    if not isinstance(cfg, KinematicCylinderShelf3DConfig):
-        raise TypeError(
-            f"{type(controller).__name__} needs a KinematicCylinderShelf3D env, got {cfg!r}"
-        )
-    return cfg
-
-
 class _SideController(ReachController):
     """Retract, drive, reach in front of a pose along a level approach, move in, act, back out
     (or lift). Objects: ``(robot, cylinder)``."""
 
     def planning_bounds(self, state: ObjectCentricState) -> tuple[float, float, float, float]:
         """The robot, the cylinders and the shelf, grown by ``PLANNING_MARGIN``."""
-        x0, x1, y0, y1 = super().planning_bounds(state)
-        sx, sy, _ = _config(self).shelf_pos
-        m = PLANNING_MARGIN
-        return min(x0, sx - m), max(x1, sx + m), min(y0, sy - m), max(y1, sy + m)
+        sx, sy, _ = self.env_config(KinematicCylinderShelf3DConfig).shelf_pos
+        return bounds_around(super().planning_bounds(state), sx, sy)
 
     def _side_sequence(
         self,
@@ -148,9 +137,9 @@ class SidePlaceController(_SideController):
     def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
         robot, obj = self.objects
         u, v, dist_p, board_p = (float(p) for p in self.params)
-        cfg = _config(self)
+        cfg = self.env_config(KinematicCylinderShelf3DConfig)
         shelf = cfg.shelf
-        sx, sy, sz = cfg.shelf_pos
+        sz = cfg.shelf_pos[2]
         f = state[obj]
         radius, half_h = float(f[9]), float(f[11])
         tops = shelf.surface_heights(sz)
@@ -161,9 +150,8 @@ class SidePlaceController(_SideController):
             if k + 1 == len(tops) or tops[k + 1] - shelf.board_thickness - top > 2 * half_h + 0.02
         ]
         top = tops[fits[min(len(fits) - 1, int(board_p * len(fits)))]]
-        hx = max(0.0, shelf.width / 2 - radius - 0.02)
-        hy = max(0.0, shelf.depth / 2 - radius - 0.02)
-        spot = np.array([sx - hx + 2 * u * hx, sy - hy + 2 * v * hy, top + half_h + 0.003])
+        x, y = board_spot(shelf, cfg.shelf_pos, u, v, radius + 0.02)
+        spot = np.array([x, y, top + half_h + 0.003])
         heading = math.pi / 2  # from the front of the shelf (−y), facing +y
         pinch_q = side_quat(heading)
         tool_q = compose(np.zeros(3), pinch_q, np.zeros(3), _GRIPPER_TO_TOOL)[1]

@@ -41,12 +41,13 @@ from kinder_gym.model import PlanningModel
 from kinder_gym.models.kinematic3d.pick_release import (
     BlockPickController,
     ReleaseController,
+    board_spot,
     centre_at_least,
     floor_pick_model,
 )
 from kinder_gym.models.kinematic3d.tidybot import (
-    PLANNING_MARGIN,
     ConfigWaypoint,
+    bounds_around,
     release_pose,
     top_down_quat,
 )
@@ -63,30 +64,20 @@ class ShelfPlaceController(ReleaseController):
         "0.38 + 0.12·dist metres away, in front of the shelf (side < 1/2) or behind it."
     )
 
-    def _config(self) -> KinematicShelf3DConfig:
-        cfg = self.context.config
-        if not isinstance(cfg, KinematicShelf3DConfig):
-            raise TypeError(f"{type(self).__name__} needs a KinematicShelf3D env, got {cfg!r}")
-        return cfg
-
     def planning_bounds(self, state: ObjectCentricState) -> tuple[float, float, float, float]:
         """The robot, the blocks and the shelf, grown by ``PLANNING_MARGIN``."""
-        x0, x1, y0, y1 = super().planning_bounds(state)
-        sx, sy, _ = self._config().shelf_pos
-        m = PLANNING_MARGIN
-        return min(x0, sx - m), max(x1, sx + m), min(y0, sy - m), max(y1, sy + m)
+        sx, sy, _ = self.env_config(KinematicShelf3DConfig).shelf_pos
+        return bounds_around(super().planning_bounds(state), sx, sy)
 
     def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
         robot, obj = self.objects
         u, v, dist_p, side = (float(p) for p in self.params)
-        cfg = self._config()
+        cfg = self.env_config(KinematicShelf3DConfig)
         shelf = cfg.shelf
-        sx, sy, sz = cfg.shelf_pos
-        top = shelf.surface_heights(sz)[-1]
+        top = shelf.surface_heights(cfg.shelf_pos[2])[-1]
         o_half = np.asarray(state[obj][9:12], dtype=np.float64)
         r = float(np.hypot(o_half[0], o_half[1])) + 0.02
-        hx, hy = max(0.0, shelf.width / 2 - r), max(0.0, shelf.depth / 2 - r)
-        px, py = sx - hx + 2 * u * hx, sy - hy + 2 * v * hy
+        px, py = board_spot(shelf, cfg.shelf_pos, u, v, r)
         pz = top + o_half[2] + 0.003
         angle = math.pi / 2 if side < 0.5 else -math.pi / 2
         dist = 0.38 + 0.12 * dist_p

@@ -6,6 +6,7 @@ elsewhere: KinematicShelf3D, PrplLab3D and KinematicCylinderShelf3D.
   across the block's narrow side (a block is longer than the open gripper is wide).
 * :class:`ReleaseController`: retract, drive, reach a little above a release pose, descend, open
   and lift; families give the release pose.
+* :func:`board_spot`: a release spot on a shelf board (both shelf families).
 * :func:`floor_pick_model`: the planning model over ``OnFloor`` and a family's "placed"
   predicate, with one pick and one place skill (the family gives the test and the controllers).
 
@@ -20,6 +21,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
+from kinder_garden3d.kinematic3d.kinematic_shelf3d import ShelfGeometry
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, ROBOT_TYPE
 from kinder_gym.concepts import GroundAtom, Predicate, Variable
 from kinder_gym.model import PlanningModel
@@ -72,6 +74,17 @@ class ReleaseController(ReachController):
         """Retract, drive, reach ``PLACE_APPROACH`` above the release pose, descend, open, lift."""
         approach = np.array([0.0, 0.0, PLACE_APPROACH])
         return self._sequence(state, base_goal, ee_pos, ee_quat, 1.0, salt=2, approach=approach)
+
+
+def board_spot(
+    shelf: ShelfGeometry, shelf_pos: Sequence[float], u: float, v: float, margin: float
+) -> tuple[float, float]:
+    """The point (x, y) at fractions (u, v) of the footprint of ``shelf`` (centred at
+    ``shelf_pos``) shrunk by ``margin`` on every side (a placed item's half width and a
+    clearance)."""
+    sx, sy = float(shelf_pos[0]), float(shelf_pos[1])
+    hx, hy = max(0.0, shelf.width / 2 - margin), max(0.0, shelf.depth / 2 - margin)
+    return sx - hx + 2 * u * hx, sy - hy + 2 * v * hy
 
 
 def centre_at_least(z: float) -> Callable[[ObjectCentricState, Object], bool]:
@@ -144,6 +157,7 @@ __all__: Sequence[str] = [
     "PLACE_APPROACH",
     "BlockPickController",
     "ReleaseController",
+    "board_spot",
     "centre_at_least",
     "floor_pick_model",
 ]

@@ -57,9 +57,7 @@ class RaiseController(ReleaseController):
     def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
         robot, _obj = self.objects
         reach, side, height = (float(p) for p in self.params)
-        cfg = self.context.config
-        if not isinstance(cfg, PrplLab3DConfig):
-            raise TypeError(f"{type(self).__name__} needs a PrplLab3D env, got {cfg!r}")
+        cfg = self.env_config(PrplLab3DConfig)
         x, y, yaw = (float(v) for v in state[robot][:3])
         heading = yaw + (side - 0.5) * math.pi / 2
         dist = 0.35 + 0.2 * reach

@@ -24,6 +24,7 @@ import abc
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 from gymnasium import spaces
@@ -57,6 +58,8 @@ WRAP_DIMS: tuple[int, ...] = (2, *(3 + i for i in range(7) if not np.isfinite(_L
 JOINT_LOW = np.where(np.isfinite(_LOW), _LOW, -math.pi)
 JOINT_HIGH = np.where(np.isfinite(_HIGH), _HIGH, math.pi)
 HOME = np.array(RETRACT, dtype=np.float64)
+#: A family's env config type (see :meth:`TidyBotController.env_config`).
+ConfigT = TypeVar("ConfigT")
 
 
 def wrap(theta: float) -> float:
@@ -141,6 +144,14 @@ class TidyBotController(Controller):
     def robot(self) -> Object:
         """The robot object."""
         return self.objects[0]
+
+    def env_config(self, kind: type[ConfigT]) -> ConfigT:
+        """The env's config, checked to be a ``kind`` (a family's controllers need its env)."""
+        cfg = self.context.config
+        if not isinstance(cfg, kind):
+            env_name = kind.__name__.removesuffix("Config")
+            raise TypeError(f"{type(self).__name__} needs a {env_name} env, got {cfg!r}")
+        return cfg
 
     @abc.abstractmethod
     def waypoints(self, state: ObjectCentricState) -> list[ConfigWaypoint]:
@@ -321,6 +332,16 @@ def solve_ik(
     if not result.success:
         raise SkillFailure(f"no IK solution for the end effector at {np.round(position, 3)}")
     return np.asarray(result.arm_joints, dtype=np.float64)
+
+
+def bounds_around(
+    bounds: tuple[float, float, float, float], x: float, y: float
+) -> tuple[float, float, float, float]:
+    """Planning ``bounds`` (x0, x1, y0, y1) grown to hold the point (x, y) with
+    ``PLANNING_MARGIN`` around it (a family's fixed furniture the base must be able to pass)."""
+    x0, x1, y0, y1 = bounds
+    m = PLANNING_MARGIN
+    return min(x0, x - m), max(x1, x + m), min(y0, y - m), max(y1, y + m)
 
 
 #: Height above the grasp/place pose of the pre-grasp/pre-place end-effector pose (metres).
