@@ -57,6 +57,7 @@ EXPECTED_IDS = [
     "kinder/Tossing3D-o1-v0",
     "kinder/Tossing3D-o2-v0",
     *(f"kinder/Dynamo3D-o{n}-v0" for n in (1, 3, 12)),
+    "kinder/FrankaPickPlace3D-o1-v0",
 ]
 
 #: One id per family for the default run (every id under ``-m slow``).
@@ -71,6 +72,7 @@ DEFAULT_IDS = [
     "kinder/BalanceBeam3D-o3-v0",
     "kinder/Tossing3D-o1-v0",
     "kinder/Dynamo3D-o1-v0",
+    "kinder/FrankaPickPlace3D-o1-v0",
 ]
 
 
@@ -146,7 +148,7 @@ def test_importing_the_package_imports_no_simulator():
     code = (
         "import os, sys; import kinder_garden3d, kinder_core; "
         "ids = kinder_core.list_envs('Dynamic3D'); "
-        "assert len([i for i in ids if 'LimbRepositioning3D' not in i]) == 45; "
+        "assert len([i for i in ids if 'LimbRepositioning3D' not in i]) == 46; "
         "assert 'mujoco' not in sys.modules, 'mujoco imported'; "
         "assert 'MUJOCO_GL' not in os.environ, 'MUJOCO_GL set'"
     )

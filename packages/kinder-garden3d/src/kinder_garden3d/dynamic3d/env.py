@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
@@ -28,7 +28,11 @@ from kinder_garden3d.dynamic3d.object_types import (
 from kinder_garden3d.dynamic3d.predicates import GoalEvaluator, Regions
 from kinder_garden3d.dynamic3d.scene import ARM_KD, ARM_KP, ROBOT_PREFIX, Scene, build_scene
 from kinder_garden3d.dynamic3d.taskfile import GROUND, ROBOT, TaskSpec, load_task
-from kinder_garden3d.robot.description import GRIPPER_STROKE, robot_description
+from kinder_garden3d.robot.description import (
+    GRIPPER_STROKE,
+    RobotDescription,
+    robot_description,
+)
 from kinder_garden3d.robot.mjcf import ARM_TORQUE_LIMITS
 
 # Headless rendering: EGL unless the user chose a backend (osmesa, glfw) before importing.
@@ -276,6 +280,9 @@ class Dynamic3DEnv(ObjectCentricEnv):
       `small_block_1/2`); SortClutteredBlocks3D-o12 follows upstream's cupboard layout.
     """
 
+    #: The task files' ``robot.model`` this class simulates.
+    robot_model: ClassVar[str] = "tidybot"
+
     def __init__(
         self,
         task: str,
@@ -294,6 +301,12 @@ class Dynamic3DEnv(ObjectCentricEnv):
         self.config = config
         cfg = self.config
         self.task: TaskSpec = load_task(task, num_objects, cfg.task_options)
+        if self.task.robot != self.robot_model:
+            raise ValueError(
+                f"{self.task.file}: the task's robot is {self.task.robot!r} but "
+                f"{type(self).__name__} simulates {self.robot_model!r} (tasks of the 'fr3' arm "
+                f"run in kinder_garden3d.dynamic3d.franka.Franka3DEnv)"
+            )
         self._held_torque = cfg.arm_control == "held_torque"
         self.scene: Scene = build_scene(
             self.task, (cfg.image_width, cfg.image_height), arm_motors=self._held_torque
@@ -358,23 +371,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
             src.append(index)
             scale.append(s)
 
-        desc = robot_description()
-        robot = self.objects[ROBOT]
-        base_names = [ROBOT_PREFIX + n for n in desc.base_joint_names]
-        arm_names = [ROBOT_PREFIX + n for n in desc.arm_joint_names]
-        left, right = (ROBOT_PREFIX + n for n in desc.finger_joint_names)
-        for feat, jn in zip(("x", "y", "rot"), base_names, strict=True):
-            add(robot, f"pos_base_{feat}", jq(jn))
-            add(robot, f"vel_base_{feat}", nq + jv(jn))
-        for i, jn in enumerate(arm_names):
-            add(robot, f"pos_arm_joint{i + 1}", jq(jn))
-            add(robot, f"vel_arm_joint{i + 1}", nq + jv(jn))
-        add(robot, "pos_gripper", jq(left), 1.0 / _FINGER_TRAVEL)
-        add(robot, "vel_gripper", nq + jv(left), 1.0 / _FINGER_TRAVEL)
-        self._q_base = np.array([jq(n) for n in base_names])
-        self._q_arm = np.array([jq(n) for n in arm_names])
-        self._q_fingers = np.array([jq(left), jq(right)])
-        self._v_fingers = np.array([jv(left), jv(right)])
+        self._setup_robot_indices(add, jq, jv)
 
         for name in self.task.fixtures:
             obj = self.objects[name]
@@ -424,7 +421,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
         # Bodies of each entity (a root body and its descendants), for placement checks.
         parent = m.body_parentid
         roots = {n: m.body(n).id for n in [*self.task.fixtures, *self.task.objects]}
-        roots[ROBOT] = m.body(ROBOT_PREFIX + desc.links[0].name).id
+        roots[ROBOT] = m.body(ROBOT_PREFIX + self._robot_description().links[0].name).id
         self._entity_bodies: dict[str, NDArray[np.bool_]] = {}
         for name, root in roots.items():
             mask = np.zeros(m.nbody, dtype=bool)
@@ -437,6 +434,37 @@ class Dynamic3DEnv(ObjectCentricEnv):
         self._fixture_body = np.zeros(m.nbody, dtype=bool)
         for name in self.task.fixtures:
             self._fixture_body |= self._entity_bodies[name]
+
+    def _robot_description(self) -> RobotDescription:
+        """The robot model this env simulates (the mobile manipulator here)."""
+        return robot_description()
+
+    def _setup_robot_indices(
+        self,
+        add: Callable[[Object, str, int, float], None],
+        jq: Callable[[str], int],
+        jv: Callable[[str], int],
+    ) -> None:
+        """The robot's rows of the gather/scatter tables (``add(obj, feature, sim index,
+        scale)``; ``jq``/``jv``: a joint's qpos/qvel address), and its joint addresses."""
+        nq = self.model.nq
+        desc = self._robot_description()
+        robot = self.objects[ROBOT]
+        base_names = [ROBOT_PREFIX + n for n in desc.base_joint_names]
+        arm_names = [ROBOT_PREFIX + n for n in desc.arm_joint_names]
+        left, right = (ROBOT_PREFIX + n for n in desc.finger_joint_names)
+        for feat, jn in zip(("x", "y", "rot"), base_names, strict=True):
+            add(robot, f"pos_base_{feat}", jq(jn), 1.0)
+            add(robot, f"vel_base_{feat}", nq + jv(jn), 1.0)
+        for i, jn in enumerate(arm_names):
+            add(robot, f"pos_arm_joint{i + 1}", jq(jn), 1.0)
+            add(robot, f"vel_arm_joint{i + 1}", nq + jv(jn), 1.0)
+        add(robot, "pos_gripper", jq(left), 1.0 / _FINGER_TRAVEL)
+        add(robot, "vel_gripper", nq + jv(left), 1.0 / _FINGER_TRAVEL)
+        self._q_base = np.array([jq(n) for n in base_names])
+        self._q_arm = np.array([jq(n) for n in arm_names])
+        self._q_fingers = np.array([jq(left), jq(right)])
+        self._v_fingers = np.array([jv(left), jv(right)])
 
     def _setup_actions(self) -> None:
         cfg, m = self.config, self.model

@@ -37,3 +37,16 @@ ROBOT_TYPE = Type(
 )  # fmt: skip
 
 ALL_TYPES = (FIXTURE_TYPE, STATIC_COLLIDER_TYPE, MOVABLE_TYPE, SEESAW_TYPE, DRAWER_TYPE, ROBOT_TYPE)
+
+#: The desk-mounted Franka FR3 arm (19): its mount pose (fixed during an episode, so no base
+#: velocities), arm joints, gripper, as upstream kindergarden 0.2.5's ``mujoco_fr3_robot``.
+FR3_ROBOT_TYPE = Type(
+    "Dynamic3DFR3Robot",
+    (
+        "pos_base_x", "pos_base_y", "pos_base_rot",
+        *(f"pos_arm_joint{i}" for i in range(1, 8)),
+        "pos_gripper",
+        *(f"vel_arm_joint{i}" for i in range(1, 8)),
+        "vel_gripper",
+    ),
+)  # fmt: skip

@@ -37,6 +37,7 @@ from kinder_garden3d.dynamic3d.geometry import (
 )
 from kinder_garden3d.dynamic3d.taskfile import GROUND, TaskFileError, TaskSpec
 from kinder_garden3d.robot.description import robot_description
+from kinder_garden3d.robot.fr3 import fr3_mjcf_parts
 from kinder_garden3d.robot.mjcf import ARM_TORQUE_LIMITS, mjcf_parts
 
 ROBOT_PREFIX = "robot_"
@@ -144,6 +145,18 @@ def _robot_xml(arm_motors: bool = False) -> tuple[str, str, str, str]:
     return body, actuators, parts.equality, parts.default
 
 
+def _fr3_robot_xml() -> tuple[str, str, str, str]:
+    """The Franka FR3 arm (``robot/fr3.py``, prefix ``robot_``) with its mount body
+    ``robot_fr3_link0`` made a mocap body, so that the mount pose (sampled at reset, fixed during
+    an episode) is part of the simulator state. No gravity compensation, as upstream's FR3."""
+    parts = fr3_mjcf_parts(ROBOT_PREFIX)
+    tag = f'<body name="{ROBOT_PREFIX}fr3_link0"'
+    if parts.worldbody.count(tag) != 1:
+        raise RuntimeError(f"FR3 MJCF has no body {ROBOT_PREFIX}fr3_link0")
+    body = parts.worldbody.replace(tag, f'{tag} mocap="true"')
+    return body, parts.actuator, parts.equality, parts.default
+
+
 def _region_frame(task: TaskSpec, name: str, fixtures: dict[str, FixtureAsset],
                   objects: dict[str, ObjectAsset]) -> RegionFrame:  # fmt: skip
     spec = task.regions[name]
@@ -249,7 +262,10 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int], arm_motors: bool = 
         cameras.append(
             f'<camera name="{cam.name}" pos="{_f(cam.pos)}" xyaxes="{_f(xy)}" fovy="{cam.fovy:g}"/>'
         )
-    robot_body, robot_act, robot_eq, robot_default = _robot_xml(arm_motors)
+    if task.robot == "fr3":
+        robot_body, robot_act, robot_eq, robot_default = _fr3_robot_xml()
+    else:
+        robot_body, robot_act, robot_eq, robot_default = _robot_xml(arm_motors)
     world_markers = "\n".join(markers.get("world", []))
     width, height = image_size
     xml = f"""<mujoco model="kinder_{task.family}">
@@ -294,5 +310,6 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int], arm_motors: bool = 
 """
     drawers = {d.name: (fname, d.joint) for fname, fa in fixtures.items() for d in fa.drawers}
     seesaws = {n: a.hinge for n, a in objects.items() if a.hinge is not None}
-    camera_names = [*task.cameras, f"{ROBOT_PREFIX}base", f"{ROBOT_PREFIX}wrist"]
+    robot_cameras = [] if task.robot == "fr3" else [f"{ROBOT_PREFIX}base", f"{ROBOT_PREFIX}wrist"]
+    camera_names = [*task.cameras, *robot_cameras]
     return Scene(xml, objects, fixtures, drawers, seesaws, regions, camera_names, parked)

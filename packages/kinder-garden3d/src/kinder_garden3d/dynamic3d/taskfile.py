@@ -40,8 +40,10 @@ GROUND = "ground"
 _TOP_KEYS = {
     "family", "description", "instruction", "max_episode_steps", "count", "variants", "scene",
     "fixtures", "objects", "regions", "cameras", "static", "initial_state", "goal", "notes",
-    "arm_velocity_targets", "robot_clearance", "options",
+    "arm_velocity_targets", "robot_clearance", "options", "robot",
 }  # fmt: skip
+#: Robot models a task file can name in its ``robot`` section (``model``), and the default.
+ROBOT_MODELS = ("tidybot", "fr3")
 _SCENE_KEYS = {"description", "fixtures", "objects", "regions", "cameras", "static", "notes"}
 _PLACEMENT_PREDICATES = ("on", "in")
 
@@ -129,6 +131,11 @@ class TaskSpec:
     #: Smallest distance (m) between a robot base placed without a region and the centre of any
     #: object placed on the ground (upstream kindergarden 0.2.5's ``robot_ground_clearance``).
     robot_clearance: float = 0.0
+    #: The robot model (:data:`ROBOT_MODELS`): the mobile manipulator (``"tidybot"``) or the
+    #: fixed-base Franka FR3 arm (``"fr3"``), mounted at the top height of the table fixture
+    #: ``robot_mount`` (upstream's ``mount_surface``).
+    robot: str = "tidybot"
+    robot_mount: str | None = None
     raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
 
@@ -141,6 +148,7 @@ class VariantInfo:
     file: str
     count: int | None
     max_episode_steps: int
+    robot: str = "tidybot"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -211,7 +219,7 @@ def variant_table() -> list[VariantInfo]:
             count = (
                 raw.get("count", {}).get("default") if isinstance(raw.get("count"), dict) else None
             )
-            out.append(VariantInfo(family, label, display, count, steps))
+            out.append(VariantInfo(family, label, display, count, steps, _robot_model(raw)))
             continue
         if not isinstance(variants, dict) or not variants:
             raise TaskFileError(f"{display}: variants: expected a non-empty object")
@@ -225,8 +233,15 @@ def variant_table() -> list[VariantInfo]:
                     f"{display}: variants.{label}.max_episode_steps: expected a positive "
                     f"integer, got {label_steps!r}"
                 )
-            out.append(VariantInfo(family, label, display, count, label_steps))
+            out.append(VariantInfo(family, label, display, count, label_steps, _robot_model(raw)))
     return out
+
+
+def _robot_model(raw: dict[str, Any]) -> str:
+    """The ``robot.model`` of a raw task file (the default ``"tidybot"`` when absent)."""
+    robot = raw.get("robot")
+    model = robot.get("model", "tidybot") if isinstance(robot, dict) else "tidybot"
+    return str(model)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -459,6 +474,21 @@ def load_task(task: str, num_objects: int | None = None, options: Sequence[str] 
     clearance = v.number(raw.get("robot_clearance", 0.0), "robot_clearance")
     if clearance < 0:
         raise v.error("robot_clearance", f"must be >= 0, got {clearance}")
+    robot_cfg = v.obj(raw.get("robot", {}), "robot", {"model", "mount_surface"})
+    robot_model = v.string(robot_cfg.get("model", "tidybot"), "robot.model")
+    if robot_model not in ROBOT_MODELS:
+        raise v.error("robot.model", f"must be one of {list(ROBOT_MODELS)}, got {robot_model!r}")
+    robot_mount: str | None = None
+    if robot_model == "fr3":
+        robot_mount = v.string(robot_cfg.get("mount_surface"), "robot.mount_surface")
+        if robot_mount not in fixtures or fixtures[robot_mount].kind != "table":
+            tables = sorted(n for n, f in fixtures.items() if f.kind == "table")
+            raise v.error(
+                "robot.mount_surface",
+                f"the fr3 arm is mounted on a table fixture; got {robot_mount!r}, tables: {tables}",
+            )
+    elif "mount_surface" in robot_cfg:
+        raise v.error("robot.mount_surface", "only the fixed-base 'fr3' robot has a mount")
     return TaskSpec(
         file=display,
         family=family,
@@ -479,6 +509,8 @@ def load_task(task: str, num_objects: int | None = None, options: Sequence[str] 
             raw.get("arm_velocity_targets", False), "arm_velocity_targets"
         ),
         robot_clearance=clearance,
+        robot=robot_model,
+        robot_mount=robot_mount,
         raw=raw,
     )
 

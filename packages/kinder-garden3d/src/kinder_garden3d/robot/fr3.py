@@ -25,6 +25,7 @@ and is turned -90 degrees about z (its x axis is the closing direction).
 from __future__ import annotations
 
 import math
+import re
 from functools import cache
 
 from kinder_garden3d.robot.description import (
@@ -43,7 +44,7 @@ from kinder_garden3d.robot.description import (
     _box_inertia,
     _cyl_inertia,
 )
-from kinder_garden3d.robot.mjcf import mjcf_parts
+from kinder_garden3d.robot.mjcf import MjcfParts, mjcf_parts
 
 _HALF_PI = math.pi / 2.0
 
@@ -79,6 +80,11 @@ FR3_FLANGE_OFFSET = 0.107
 FR3_PINCH_OFFSET = 0.112038
 #: Gains of the arm's joint position servos (as upstream's FR3 actuators: kv = kp / 10).
 FR3_POSITION_KP = (4500.0, 4500.0, 3500.0, 3500.0, 2000.0, 2000.0, 2000.0)
+#: Joint dynamics of the arm (MuJoCo Menagerie's ``franka_fr3``, upstream's model): viscous
+#: damping (N m s/rad), rotor armature (kg m^2) and dry friction (N m) per joint.
+FR3_JOINT_DAMPING = 0.21
+FR3_JOINT_ARMATURE = (0.195, 0.195, 0.195, 0.195, 0.074, 0.074, 0.074)
+FR3_JOINT_FRICTIONLOSS = (1.137, 1.137, 1.137, 1.137, 0.763, 0.44, 0.248)
 #: Gripper masses (kg): the base with its housing, and each finger's linkage and pad.
 _GRIPPER_MASS = 0.777441
 _FINGER_MASS = 0.06
@@ -240,16 +246,27 @@ def fr3_description() -> RobotDescription:
     )
 
 
-def fr3_mjcf(prefix: str = "", with_floor: bool = False) -> str:
-    """A standalone MJCF of the FR3 on a fixed mount at the origin.
+def fr3_mjcf_parts(prefix: str = "") -> MjcfParts:
+    """The FR3's MJCF fragments (see :func:`~kinder_garden3d.robot.mjcf.mjcf_parts`), with the
+    arm's joint dynamics and actuators replaced by upstream's FR3 values.
 
-    Actuators: ``arm_1`` … ``arm_7``, joint position servos (ctrl in rad, ctrlrange = the joint
-    range, kp :data:`FR3_POSITION_KP`, kv = kp / 10, force limited to :data:`FR3_JOINT_TORQUES`);
-    ``fingers_actuator``, the gripper servo of the mobile manipulator's model (ctrl 0 = open …
-    255 = closed).
+    Joints: damping :data:`FR3_JOINT_DAMPING`, armature :data:`FR3_JOINT_ARMATURE`, friction
+    loss :data:`FR3_JOINT_FRICTIONLOSS`. Actuators: ``arm_1`` … ``arm_7``, joint position servos
+    (ctrl in rad, ctrlrange = the joint range, kp :data:`FR3_POSITION_KP`, kv = kp / 10, force
+    limited to :data:`FR3_JOINT_TORQUES`); ``fingers_actuator``, the gripper servo of the mobile
+    manipulator's model (ctrl 0 = open … 255 = closed). The root body is the mount.
     """
     desc = fr3_description()
     parts = mjcf_parts(desc, prefix, free_base=False)
+    body = parts.worldbody
+    for i, name in enumerate(desc.arm_joint_names):
+        found = re.search(rf'<joint name="{prefix}{name}"[^>]*/>', body)
+        if found is None:
+            raise RuntimeError(f"FR3 MJCF has no joint {prefix}{name}")
+        new = re.sub(r'armature="[^"]*"', f'armature="{FR3_JOINT_ARMATURE[i]!r}"', found.group(0))
+        new = re.sub(r'damping="[^"]*"', f'damping="{FR3_JOINT_DAMPING!r}"', new)
+        new = new.replace("/>", f' frictionloss="{FR3_JOINT_FRICTIONLOSS[i]!r}"/>')
+        body = body[: found.start()] + new + body[found.end() :]
     acts = []
     for i, name in enumerate(desc.arm_joint_names):
         lower, upper = FR3_JOINT_LIMITS[i]
@@ -262,7 +279,13 @@ def fr3_mjcf(prefix: str = "", with_floor: bool = False) -> str:
     fingers = [line for line in parts.actuator.splitlines() if "fingers_actuator" in line]
     if len(fingers) != 1:
         raise RuntimeError("the shared gripper model must define exactly one fingers_actuator")
-    actuator = "\n".join([*acts, *fingers])
+    return MjcfParts(body, "\n".join([*acts, *fingers]), parts.equality, parts.default)
+
+
+def fr3_mjcf(prefix: str = "", with_floor: bool = False) -> str:
+    """A standalone MJCF of the FR3 on a fixed mount at the origin (:func:`fr3_mjcf_parts`)."""
+    desc = fr3_description()
+    parts = fr3_mjcf_parts(prefix)
     floor = (
         '    <geom name="floor" type="plane" size="5 5 0.1" rgba="0.8 0.8 0.8 1"/>\n'
         if with_floor
@@ -283,7 +306,7 @@ def fr3_mjcf(prefix: str = "", with_floor: bool = False) -> str:
         f"{parts.equality}\n"
         "  </equality>\n"
         "  <actuator>\n"
-        f"{actuator}\n"
+        f"{parts.actuator}\n"
         "  </actuator>\n"
         "</mujoco>\n"
     )
