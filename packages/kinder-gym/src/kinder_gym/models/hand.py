@@ -7,15 +7,16 @@ need the hand empty and leave it so (a push, a press, opening a drawer) are
 :func:`empty_hand_operator`; those that use a held tool and keep holding it (a hook, a stick, a
 scoop, a wiper) are :func:`tool_operator`. A model whose goal is one classified atom (the robot
 at a target, a block at its goal pose) pairs it with its negation (:func:`goal_predicates`) and
-reaches it with one move that turns the one into the other (:func:`goal_operator`).
+reaches it with one move that turns the one into the other (:func:`goal_operator`);
+:func:`first_objects_goal` is the goal of a model with one robot and one target.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
-from kinder_core import Type
-from kinder_gym.concepts import Classifier, LiftedAtom, Predicate, Variable
+from kinder_core import ObjectCentricState, Type
+from kinder_gym.concepts import Classifier, GroundAtom, LiftedAtom, Predicate, Variable
 from kinder_gym.operators import LiftedOperator
 
 
@@ -117,6 +118,18 @@ def goal_predicates(
     )
 
 
+def first_objects_goal(
+    goal: Predicate,
+) -> Callable[[ObjectCentricState], frozenset[GroundAtom]]:
+    """The goal function ``{goal(o1, …, on)}``, each ``oi`` the state's first object of
+    ``goal``'s i-th type (a model of one robot and one target)."""
+
+    def goal_fn(state: ObjectCentricState) -> frozenset[GroundAtom]:
+        return frozenset({goal.ground([state.get_objects(t)[0] for t in goal.types])})
+
+    return goal_fn
+
+
 def goal_operator(
     name: str,
     params: Sequence[Variable],
@@ -131,6 +144,7 @@ def goal_operator(
 
 __all__: Sequence[str] = [
     "empty_hand_operator",
+    "first_objects_goal",
     "goal_operator",
     "goal_predicates",
     "pick_operator",

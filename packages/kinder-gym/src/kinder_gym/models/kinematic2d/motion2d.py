@@ -25,9 +25,9 @@ from gymnasium import spaces
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden2d.kinematic2d.object_types import CRV_ROBOT, RECTANGLE, TARGET_REGION
 from kinder_garden2d.kinematic2d.predicates import robot_in_region
-from kinder_gym.concepts import GroundAtom, Variable
+from kinder_gym.concepts import Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.hand import goal_operator, goal_predicates
+from kinder_gym.models.hand import first_objects_goal, goal_operator, goal_predicates
 from kinder_gym.models.kinematic2d.crv import (
     ARM_JOINT,
     BASE_RADIUS,
@@ -171,17 +171,12 @@ def passage_path(
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The Motion2D planning model (any number of passages)."""
 
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        robot = state.get_objects(CRV_ROBOT)[0]
-        region = state.get_objects(TARGET_REGION)[0]
-        return frozenset({AtTarget.ground([robot, region])})
-
     return PlanningModel(
         name="motion2d",
         env=env,
         types=(CRV_ROBOT, RECTANGLE, TARGET_REGION),
         predicates=(AtTarget, NotAtTarget),
         skills=(Skill(MOVE_TO_TARGET, MoveToTargetController, env),),
-        goal_fn=goal,
+        goal_fn=first_objects_goal(AtTarget),
         max_skill_horizon=400,
     )

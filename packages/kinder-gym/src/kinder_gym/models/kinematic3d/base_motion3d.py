@@ -21,9 +21,9 @@ import numpy as np
 
 from kinder_core import Object, ObjectCentricEnv, ObjectCentricState
 from kinder_garden3d.kinematic3d.object_types import POINT_TYPE, ROBOT_TYPE
-from kinder_gym.concepts import GroundAtom, Variable
+from kinder_gym.concepts import Variable
 from kinder_gym.model import PlanningModel
-from kinder_gym.models.hand import goal_operator, goal_predicates
+from kinder_gym.models.hand import first_objects_goal, goal_operator, goal_predicates
 from kinder_gym.motion_planning import FloatArray, config_delta, plan_se2
 from kinder_gym.skills import Controller, Skill, SkillFailure
 
@@ -99,17 +99,12 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     t = Variable("?target", POINT_TYPE)
     move = goal_operator("MoveBaseToTarget", (r, t), AtTarget, NotAtTarget, (r, t))
 
-    def goal(state: ObjectCentricState) -> frozenset[GroundAtom]:
-        robot = state.get_objects(ROBOT_TYPE)[0]
-        target = state.get_objects(POINT_TYPE)[0]
-        return frozenset({AtTarget.ground([robot, target])})
-
     return PlanningModel(
         name="basemotion3d",
         env=env,
         types=(ROBOT_TYPE, POINT_TYPE),
         predicates=(AtTarget, NotAtTarget),
         skills=(Skill(move, MoveBaseToTargetController, env),),
-        goal_fn=goal,
+        goal_fn=first_objects_goal(AtTarget),
         max_skill_horizon=100,
     )
