@@ -8,7 +8,8 @@ elsewhere: KinematicShelf3D, PrplLab3D and KinematicCylinderShelf3D.
   and lift; families give the release pose.
 * :func:`board_spot`: a release spot on a shelf board (both shelf families).
 * :func:`floor_pick_model`: the planning model over ``OnFloor`` and a family's "placed"
-  predicate, with one pick and one place skill (the family gives the test and the controllers).
+  predicate, with one pick and one place skill (the family gives the test, such as
+  :func:`centre_at_least`, and the controllers).
 
 Imports kinder_garden3d (the ``[3d]`` extra).
 """

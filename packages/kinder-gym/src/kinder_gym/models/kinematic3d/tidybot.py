@@ -10,9 +10,11 @@ reverted a colliding motion).
 
 :class:`ConfigChecker` tells whether a configuration is collision-free in a state, with the env's
 own pybullet geometry (``env.penetrations``), carrying the held object (and what a held container
-holds) along. :class:`ReachController` (drive to a standoff, reach down, act, lift) and
-:class:`TableTopController` (reach from the home base pose) are the motions the family models
-build their skills from (:func:`release_pose` aims a held object); :func:`hand_predicates`,
+holds) along. :class:`ReachController` (retract, drive to a standoff, reach a pre-pose above the
+target or along any approach, move in, act, back out or lift), :class:`PickController` (its pick,
+with a per-family grasp hook) and :class:`TableTopController` (reach from the home base pose) are
+the motions the family models build their skills from (:func:`release_pose` aims a held object,
+:func:`bounds_around` lets the base pass a family's furniture); :func:`hand_predicates`,
 :func:`hand_atoms` and :func:`held_or_resting` build the hand's predicates and atoms every family
 model shares (its pick/place operators come from :mod:`kinder_gym.models.hand`).
 Imports kinder_garden3d (the ``[3d]`` extra).
