@@ -136,6 +136,11 @@ def test_servos_hold_home_under_gravity_and_the_gripper_closes():
     assert model.actuator("arm_4").ctrlrange.tolist() == [-3.0421, -0.1518]
     assert model.actuator("arm_1").forcerange.tolist() == [-87.0, 87.0]
     assert model.actuator("arm_7").forcerange.tolist() == [-12.0, 12.0]
+    # Upstream's joint dynamics (Menagerie's franka_fr3).
+    dofs = [model.jnt_dofadr[model.joint(n).id] for n in DESC.arm_joint_names]
+    assert model.dof_damping[dofs].tolist() == [0.21] * 7
+    assert model.dof_armature[dofs].tolist() == [0.195] * 4 + [0.074] * 3
+    assert model.dof_frictionloss[dofs].tolist() == [1.137] * 4 + [0.763, 0.44, 0.248]
 
 
 def test_ik_round_trips_random_reachable_poses():
