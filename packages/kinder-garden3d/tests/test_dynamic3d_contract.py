@@ -58,6 +58,7 @@ EXPECTED_IDS = [
     "kinder/Tossing3D-o2-v0",
     *(f"kinder/Dynamo3D-o{n}-v0" for n in (1, 3, 12)),
     "kinder/FrankaPickPlace3D-o1-v0",
+    "kinder/PickPlace3D-o1-v0",
 ]
 
 #: One id per family for the default run (every id under ``-m slow``).
@@ -73,6 +74,7 @@ DEFAULT_IDS = [
     "kinder/Tossing3D-o1-v0",
     "kinder/Dynamo3D-o1-v0",
     "kinder/FrankaPickPlace3D-o1-v0",
+    "kinder/PickPlace3D-o1-v0",
 ]
 
 
@@ -148,7 +150,7 @@ def test_importing_the_package_imports_no_simulator():
     code = (
         "import os, sys; import kinder_garden3d, kinder_core; "
         "ids = kinder_core.list_envs('Dynamic3D'); "
-        "assert len([i for i in ids if 'LimbRepositioning3D' not in i]) == 46; "
+        "assert len([i for i in ids if 'LimbRepositioning3D' not in i]) == 47; "
         "assert 'mujoco' not in sys.modules, 'mujoco imported'; "
         "assert 'MUJOCO_GL' not in os.environ, 'MUJOCO_GL set'"
     )

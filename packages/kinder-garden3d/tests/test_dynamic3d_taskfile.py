@@ -240,11 +240,11 @@ def test_scene_is_patched_by_the_task():
 
 def test_every_bundled_file_loads_at_every_registered_count():
     table = variant_table()
-    assert len(table) == 46
+    assert len(table) == 47
     for info in table:
         task = load_task(info.file, info.count)
         assert task.family == info.family
-    assert len(list(task_files())) == 24
+    assert len(list(task_files())) == 25
 
 
 def test_merge_patch_follows_rfc7386():

@@ -45,7 +45,7 @@ def _families(category: str, module: str, dist: str, names: str) -> dict[str, Fa
 
 # The static table of the KinDERGarden families: the paper's 25, then the upstream 0.2.5
 # families the paper does not list (KinematicShelf3D, KinematicCylinderShelf3D, PrplLab3D,
-# LimbRepositioning3D, FrankaPickPlace3D).
+# LimbRepositioning3D, FrankaPickPlace3D, PickPlace3D).
 FAMILY_SOURCES: dict[str, FamilySource] = {
     **_families(
         "Kinematic2D",
@@ -73,7 +73,7 @@ FAMILY_SOURCES: dict[str, FamilySource] = {
         "kinder-garden3d",
         "Shelf3D ConstrainedCupboard3D Rearrange3D SortClutteredBlocks3D SweepSimple3D "
         "SweepIntoDrawer3D ScoopPour3D BalanceBeam3D Tossing3D Dynamo3D LimbRepositioning3D "
-        "FrankaPickPlace3D",
+        "FrankaPickPlace3D PickPlace3D",
     ),
 }
 
