@@ -1,10 +1,11 @@
-"""LimbRepositioning3D conforms to upstream kindergarden 0.2.5, checked against a recorded fixture.
+"""LimbRepositioning3D conforms to upstream kindergarden 0.2.5, checked against recorded fixtures.
 
-The fixture (``tests/data/conformance/LimbRepositioning3D-isolated-right-arm.json``) was recorded
-from upstream with ``tools/conformance/record_upstream.py
-kinder/LimbRepositioning3D-isolated-right-arm-v0 --seeds 100 --full 10 --random 2 --steps 20
---no-scripts`` (upstream's IKFast module for the Kinova arm had to be built against the shared
-LAPACK and BLAS libraries, which its build script expects as static archives).
+The fixtures (``tests/data/conformance/LimbRepositioning3D-<variant>.json`` for
+isolated-right-arm and human-left-leg) were recorded from upstream with
+``tools/conformance/record_upstream.py kinder/LimbRepositioning3D-<variant>-v0 --seeds 100
+--full 10 --random 2 --steps 20 --no-scripts`` (upstream's IKFast module for the Kinova arm had
+to be built against the shared LAPACK and BLAS libraries, which its build script expects as
+static archives).
 
 The family rule:
 
@@ -18,9 +19,10 @@ The family rule:
   positions within ``POS_ATOL`` rad and joint velocities within ``VEL_ATOL`` rad/s; base pose
   and goal exactly. The limb and the robot are our primitive models, whose inertias differ from
   upstream's meshes and Kinova URDF, so one 1/240 s step under the same torques changes the
-  velocities by slightly different amounts. Measured on this fixture (40 steps): positions
-  2.3e-3 rad (robot joint 7; limb 2.5e-3, the wrist), velocities 0.59 rad/s (limb wrist) and
-  0.54 rad/s (robot joint 7); the light distal links carry the largest differences.
+  velocities by slightly different amounts. Measured (40 steps each): isolated-right-arm,
+  positions 2.3e-3 rad (robot joint 7; limb 2.5e-3, the wrist), velocities 0.59 rad/s (limb
+  wrist) and 0.54 rad/s (robot joint 7); human-left-leg, positions 5.0e-4 rad, velocities
+  0.12 rad/s. The light distal links carry the largest differences.
 """
 
 from __future__ import annotations
@@ -34,22 +36,17 @@ import kinder_core
 import kinder_garden3d  # noqa: F401  (registers the ids)
 from kinder_core.conformance import check_resets, load_fixture
 
-FIXTURE = (
-    Path(__file__).parent / "data" / "conformance" / "LimbRepositioning3D-isolated-right-arm.json"
-)
-ENV_ID = "kinder/LimbRepositioning3D-isolated-right-arm-v0"
+DATA = Path(__file__).parent / "data" / "conformance"
+VARIANTS = ["isolated-right-arm", "human-left-leg"]
 POS_ATOL = 5e-3
 VEL_ATOL = 1.0
 IK_BRANCH = {f"robot.joint_{i}" for i in range(1, 8)}
 
 
-@pytest.fixture(scope="module")
-def fixture():  # type: ignore[no-untyped-def]
-    return load_fixture(FIXTURE)
-
-
-def test_reset_distribution(fixture):  # type: ignore[no-untyped-def]
-    env = kinder_core.make(ENV_ID)
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_reset_distribution(variant: str) -> None:
+    fixture = load_fixture(DATA / f"LimbRepositioning3D-{variant}.json")
+    env = kinder_core.make(f"kinder/LimbRepositioning3D-{variant}-v0")
     try:
         report = check_resets(env, fixture)
     finally:
@@ -60,12 +57,14 @@ def test_reset_distribution(fixture):  # type: ignore[no-untyped-def]
     assert len(limb) == 6 and all(f.kind == "sampled" and f.ok for f in limb)
 
 
-def test_one_step_transitions_from_upstream_states(fixture):  # type: ignore[no-untyped-def]
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_one_step_transitions_from_upstream_states(variant: str) -> None:
+    fixture = load_fixture(DATA / f"LimbRepositioning3D-{variant}.json")
     names = fixture.feature_names
     vel = np.array(["_vel_" in n for n in names])
     exact = np.array([n.startswith("robot.pos_base") or ".goal_joint_" in n for n in names])
     pos = ~vel & ~exact
-    env = kinder_core.make(ENV_ID)
+    env = kinder_core.make(f"kinder/LimbRepositioning3D-{variant}-v0")
     steps = 0
     try:
         for traj in fixture.trajectories:

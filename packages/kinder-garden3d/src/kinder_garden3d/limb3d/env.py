@@ -21,7 +21,7 @@ from kinder_garden3d.limb3d.limbs import (
     LimbSpec,
     limb_urdf_path,
 )
-from kinder_garden3d.robot.description import RETRACT
+from kinder_garden3d.robot.description import RETRACT, robot_description
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -181,6 +181,17 @@ TORSO_CENTER: Vec3 = (0.0, 0.01, 0.23)
 TORSO_HALF: Vec3 = (0.17, 0.12, 0.32)
 HEAD_CENTER: Vec3 = (0.0, 0.02, 0.68)
 HEAD_RADIUS = 0.1
+#: Further arm configurations the grasp IK starts from, in order, when the previous start ends
+#: outside the joint limits or away from the target: the retract pose turned about the first
+#: joint, the zero pose, then 24 fixed configurations drawn once (uniform within ±2 rad, a
+#: constant of the module, so resets stay a function of the seed alone).
+IK_STARTS: tuple[tuple[float, ...], ...] = (
+    tuple(RETRACT[0] + math.pi / 2 if i == 0 else v for i, v in enumerate(RETRACT)),
+    tuple(RETRACT[0] - math.pi / 2 if i == 0 else v for i, v in enumerate(RETRACT)),
+    tuple(RETRACT[0] + math.pi if i == 0 else v for i, v in enumerate(RETRACT)),
+    (0.0,) * 7,
+    *(tuple(float(v) for v in row) for row in np.random.default_rng(0).uniform(-2.0, 2.0, (24, 7))),
+)
 #: Reset draws before falling back to the nominal start, and the shrink of the noise per draw.
 MAX_INIT_DRAWS = 20
 INIT_NOISE_DECAY = 0.75
@@ -227,7 +238,8 @@ class LimbRepositioning3DConfig:
         init_max_penetration: How much deeper (m) than at the nominal start a drawn limb may
             overlap the rest of the body (human scene); deeper draws are redrawn.
         robot_initial_joints: The arm configuration the grasp IK starts from.
-        ik_iterations: pybullet IK refinements toward the grasp pose at reset.
+        ik_iterations: pybullet IK refinements toward the grasp pose at reset, per start.
+        ik_tolerance: Gripper position error (m) at which an IK solution is accepted.
         image_width, image_height: Size of rendered frames.
         camera_distance, camera_yaw, camera_pitch: The orbit camera around the limb's anchor.
     """
@@ -239,6 +251,7 @@ class LimbRepositioning3DConfig:
     init_max_penetration: float = 0.002
     robot_initial_joints: tuple[float, ...] = RETRACT
     ik_iterations: int = 50
+    ik_tolerance: float = 1e-4
     image_width: int = 512
     image_height: int = 512
     camera_distance: float = 2.0
@@ -307,9 +320,10 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
     intersected with the limb's anatomical range of motion (AAOS normal adult values); a draw
     that overlaps the rest of the body more than 2 mm deeper than the nominal start does is
     redrawn with the half width shrunk by 0.75 (up to 20 draws, then the nominal start); all
-    velocities are zero. The arm is solved by pybullet's IK, from the Kinova retract
-    configuration, for the end-effector pose at the limb's grasp frame (the weld holds whatever
-    pose the IK reaches).
+    velocities are zero. The arm is solved by pybullet's IK for the end-effector pose at the
+    limb's grasp frame, from the Kinova retract configuration and then from fixed further starts
+    until a solution lies within the arm's joint limits and 0.1 mm of the target (else the
+    closest one is kept).
 
     ## Episode End
     Terminates when the summed absolute joint error to the goal (each wrapped into [−π, π)) is
@@ -327,7 +341,12 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
     robot is the project's primitive model, so inertias differ and trajectories under the same
     torques are not upstream's. Upstream settles the robot for 1000 steps at construction and
     solves the grasp with IKFast; here pybullet's damped least squares solves it from the
-    retract configuration. Upstream registers no step limit; these ids use 2400.
+    retract configuration and further fixed starts. The weld is the nominal grasp (upstream
+    welds wherever its IK left the arm), so on the draws our IK does not reach within 1 mm (on
+    seeds 1000–1019: isolated-right-leg 6 of 20, up to 11 cm off; human-right-leg 5 and
+    isolated-left-arm 1, up to 3 cm; none for the other variants) the first steps pull the
+    gripper onto the grasp frame.
+    Upstream registers no step limit; these ids use 2400.
     """
 
     def __init__(
@@ -357,6 +376,7 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         self._obstacles: list[int] = []
         self._rest_clearance: list[float] = []
         self._grasp_tf = _grasp_transform(self.limb_spec.is_arm)
+        self._arm_low, self._arm_high = robot_description().arm_joint_limits
 
     # -- the simulator --------------------------------------------------------------------------
     def _client(self) -> int:
@@ -540,17 +560,15 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
 
     def _solve_grasp(self, limb_joints: NDArray[np.float64]) -> NDArray[np.float64]:
         """Arm joints that put the end effector at the grasp frame composed with the grasp
-        transform, by iterated pybullet IK from ``robot_initial_joints``."""
+        transform: iterated pybullet IK from each of :data:`IK_STARTS` in turn (the first is
+        ``robot_initial_joints``), keeping the first solution within the arm's joint limits
+        and ``ik_tolerance`` of the target, else the one closest to the target."""
         cid = self._client()
         scene = self._scene
-        for idx, q in zip(self._limb_joints, limb_joints, strict=True):
-            pb.resetJointState(self._limb_body, idx, float(q), 0.0, physicsClientId=cid)
+        self._set_limb(cid, limb_joints)
         gp, gq = self.grasp_frame_pose()
         tool_p, tool_q = pb.multiplyTransforms(gp, gq, *self._grasp_tf)
         target_p, target_q = pb.multiplyTransforms(tool_p, tool_q, *_tool_to_gripper())
-        v = self.variant
-        q = np.array(self.config.robot_initial_joints, dtype=np.float64)
-        scene.set_robot(np.array([*v.robot_base, *q]), 0.0)
         link = scene._link_idx["gripper_base_link"]
         movable = [
             j
@@ -558,19 +576,36 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
             if pb.getJointInfo(scene.robot, j, physicsClientId=cid)[2] != pb.JOINT_FIXED
         ]
         arm_pos = [movable.index(j) for j in scene._arm_idx]
-        for _ in range(self.config.ik_iterations):
-            sol = pb.calculateInverseKinematics(
-                scene.robot,
-                link,
-                target_p,
-                target_q,
-                maxNumIterations=100,
-                residualThreshold=1e-6,
-                physicsClientId=cid,
-            )
-            q = np.array([sol[i] for i in arm_pos], dtype=np.float64)
-            scene.set_robot(np.array([*v.robot_base, *q]), 0.0)
-        return q
+        base = self.variant.robot_base
+        best, best_err = np.array(self.config.robot_initial_joints), math.inf
+        for start in (self.config.robot_initial_joints, *IK_STARTS):
+            q = np.array(start, dtype=np.float64)
+            scene.set_robot(np.array([*base, *q]), 0.0)
+            for _ in range(self.config.ik_iterations):
+                sol = pb.calculateInverseKinematics(
+                    scene.robot,
+                    link,
+                    target_p,
+                    target_q,
+                    maxNumIterations=100,
+                    residualThreshold=1e-6,
+                    physicsClientId=cid,
+                )
+                # pybullet's IK ignores joint ranges; a full turn is the same pose, so wrap
+                # into [-pi, pi).
+                q = np.array([sol[i] for i in arm_pos], dtype=np.float64)
+                q = (q + math.pi) % (2.0 * math.pi) - math.pi
+                scene.set_robot(np.array([*base, *q]), 0.0)
+            pos = pb.getLinkState(
+                scene.robot, link, computeForwardKinematics=True, physicsClientId=cid
+            )[4]
+            err = float(np.linalg.norm(np.subtract(pos, target_p)))
+            inside = bool(np.all(q >= self._arm_low) and np.all(q <= self._arm_high))
+            if inside and err < self.config.ik_tolerance:
+                return q
+            if err < best_err:
+                best, best_err = q, err
+        return best
 
     # -- the contract ---------------------------------------------------------------------------
     def box_objects(self) -> list[Object]:
