@@ -106,6 +106,13 @@ with no family rule (30 and 100 seeds). Random actions drive the robot into the 
 
 PickPlace3D-o1 (recorded the same way, 100 seeds) needs no family rule: one-step errors base
 median 1.3e-4, max 2.5e-4; arm median 0.029, max 0.051; gripper max 0.010; objects 2e-12.
+
+FrankaPickPlace3D-o1 (recorded the same way, 100 seeds; the FR3 arm): the arm settles under
+gravity to the same pose on every seed, stored by upstream as constants; ours settles within
+2.1e-5 rad of upstream's elbow (joint 4; the other joints within 1e-6), which is compared to
+1e-4 rad (``CONST_TOL``). One-step errors (both arms are joint position servos): mount 0; arm
+median 1.6e-3, max 4.7e-3; gripper median 4e-3, max 0.013; objects 1.4e-4 (the cube resting
+0.1 mm deeper in upstream's contacts).
 """
 
 from __future__ import annotations
@@ -141,9 +148,13 @@ IDS = (
     "SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins",
     "SweepSimple3D-o1-sweep_the_blocks_to_the_left_side_of_the_kitchen_island",
     "PickPlace3D-o1",
+    "FrankaPickPlace3D-o1",
 )
 SETTLE_ATOL = 1e-9  # float rounding after the resolution
 CONST_ATOL = 1e-6
+#: Upstream constants that are a settled physical result rather than a stored number, with the
+#: tolerance they are compared to: the FR3's elbow after the settle (module docstring).
+CONST_TOL = {"kinder/FrankaPickPlace3D-o1-v0": {"robot.pos_arm_joint4": 1e-4}}
 #: Range slack, as a share of upstream's range at each end: at least 10 %, and for n of our samples
 #: at least the gap a uniform sample of n leaves at an end with probability 1e-4, 1 - 1e-4^(1/n).
 RANGE_SLACK = 0.1
@@ -269,7 +280,7 @@ def compare(ours: np.ndarray, fx: Fixture) -> list[str]:
         if name in fx.resets.constants:
             want = fx.resets.constants[name]
             err = float(np.max(np.abs(col - want)))
-            if err > CONST_ATOL:
+            if err > CONST_TOL.get(fx.env_id, {}).get(name, CONST_ATOL):
                 problems.append(f"{name}: upstream constant {want!r}, ours off by {err:.3g}")
             continue
         bound = SETTLE_NOISE.get(fx.env_id, {}).get(name)
