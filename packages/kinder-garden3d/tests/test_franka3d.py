@@ -164,6 +164,10 @@ def test_each_env_class_rejects_the_other_robot(tmp_path: Path) -> None:
     unplaced["initial_state"] = [p for p in unplaced["initial_state"] if p[1] != "robot"]
     with pytest.raises(ValueError, match="needs an initial-state predicate placing 'robot'"):
         Franka3DEnv(_write(tmp_path, unplaced))
+    velocities = _task_json()
+    velocities["arm_velocity_targets"] = True
+    with pytest.raises(ValueError, match="the fr3 arm takes joint deltas only"):
+        Franka3DEnv(_write(tmp_path, velocities))
 
 
 def test_config_defaults_are_upstreams_contact_settings() -> None:

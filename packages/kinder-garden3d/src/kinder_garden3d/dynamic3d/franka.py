@@ -131,6 +131,11 @@ class Franka3DEnv(Dynamic3DEnv):
                 f"{self.task.file}: the fr3 arm needs an initial-state predicate placing 'robot' "
                 f"(its mount region)"
             )
+        if self.task.arm_velocity_targets:
+            raise ValueError(
+                f"{self.task.file}: arm_velocity_targets is for the mobile manipulator's torque "
+                f"motors; the fr3 arm takes joint deltas only"
+            )
         self.observation_space = ObjectCentricStateSpace((*ALL_TYPES, FR3_ROBOT_TYPE))
 
     # -- setup ----------------------------------------------------------------------------------
