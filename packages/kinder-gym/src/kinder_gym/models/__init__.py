@@ -38,6 +38,7 @@ MODELS: dict[str, str] = {
     "SortClutteredBlocks3D": "kinder_gym.models.dynamic3d.sort_cluttered_blocks3d:create_model",
     "ScoopPour3D": "kinder_gym.models.dynamic3d.scoop_pour3d:create_model",
     "ConstrainedCupboard3D": "kinder_gym.models.dynamic3d.constrained_cupboard3d:create_model",
+    "PickPlace3D": "kinder_gym.models.dynamic3d.pick_place3d:create_model",
     "Obstruction2D": "kinder_gym.models.kinematic2d.obstruction2d:create_model",
     "ClutteredRetrieval2D": "kinder_gym.models.kinematic2d.clutteredretrieval2d:create_model",
     "ClutteredStorage2D": "kinder_gym.models.kinematic2d.clutteredstorage2d:create_model",
