@@ -53,6 +53,7 @@ kinder/FrankaPickPlace3D-o1-v0 --executor inline``): BP success 1.00 with ``--se
 
 from __future__ import annotations
 
+import abc
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -208,9 +209,9 @@ class FrankaController(Controller):
         closed = bool(state.get(self.objects[0], "pos_gripper") >= CLOSED)
         return closed == (self.hand_must_be == "closed")
 
+    @abc.abstractmethod
     def plan(self, state: ObjectCentricState) -> list[MoveSource]:
         """The moves from ``state`` (raise SkillFailure when the skill cannot run)."""
-        raise NotImplementedError
 
     def reset(self, state: ObjectCentricState, params: Sequence[float] | FloatArray) -> None:
         super().reset(state, params)
