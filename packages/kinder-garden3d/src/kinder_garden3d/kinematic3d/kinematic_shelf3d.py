@@ -243,23 +243,17 @@ class KinematicShelf3DEnv(Kinematic3DEnv):
         at a constant height, rejecting a draw that comes within ``collision_distance`` of the
         base's collision box or a block placed before (by pybullet's query, as upstream)."""
         cfg = self.config
-        x0, x1, y0, y1 = cfg.floor_region
-        half = np.array(cfg.block_half)
-        obstacles = [self.base_footprint()]
-        low, high = (x0, y0, half[2]), (x1, y1, half[2])
-        centres: list[Array] = []
-        for _cube in self.cubes:
-            for _ in range(cfg.max_sampling_attempts):
-                c = np.asarray(rng.uniform(low, high), dtype=np.float64)
-                if not any(
-                    self._probe.touch(c, half, oc, oh, cfg.collision_distance)
-                    for oc, oh in obstacles
-                ):
-                    break
-            else:
-                raise self._reset_error("a collision-free floor position")
-            obstacles.append((c, half))
-            centres.append(c)
+        centres = self._probe.place_boxes(
+            rng,
+            len(self.cubes),
+            cfg.floor_region,
+            np.array(cfg.block_half),
+            [self.base_footprint()],
+            cfg.collision_distance,
+            cfg.max_sampling_attempts,
+        )
+        if centres is None:
+            raise self._reset_error("a collision-free floor position")
         features = {
             self.robot: self.robot_features(),
             self.shelf: [*cfg.shelf_pos, 0.0, 0.0, 0.0, 1.0],

@@ -505,6 +505,35 @@ class BoxProbe:
         )
         return bool(pb.getClosestPoints(a, b, distance, physicsClientId=cid))
 
+    def place_boxes(
+        self,
+        rng: np.random.Generator,
+        count: int,
+        region: tuple[float, float, float, float],
+        half: Array,
+        obstacles: list[tuple[Array, Array]],
+        distance: float,
+        attempts: int,
+    ) -> list[Array] | None:
+        """Upstream's floor rejection sampler, draw for draw: ``count`` boxes of half extents
+        ``half`` in turn, each centre uniform over ``region`` (x0, x1, y0, y1) at height
+        ``half[2]``, a draw rejected when it comes within ``distance`` of an obstacle or a box
+        placed before; None when a box finds no place in ``attempts`` draws."""
+        x0, x1, y0, y1 = region
+        low, high = (x0, y0, half[2]), (x1, y1, half[2])
+        placed = list(obstacles)
+        centres: list[Array] = []
+        for _ in range(count):
+            for _ in range(attempts):
+                c = np.asarray(rng.uniform(low, high), dtype=np.float64)
+                if not any(self.touch(c, half, oc, oh, distance) for oc, oh in placed):
+                    break
+            else:
+                return None
+            placed.append((c, half))
+            centres.append(c)
+        return centres
+
     def close(self) -> None:
         """Disconnect the client (idempotent)."""
         if self._client is not None:
