@@ -19,8 +19,7 @@ from kinder_garden3d.kinematic3d.base_env import (
 from kinder_garden3d.kinematic3d.geometry import Part, rect_distance_2d
 from kinder_garden3d.kinematic3d.kinematic_shelf3d import ShelfGeometry
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, FIXTURE_TYPE
-from kinder_garden3d.kinematic3d.scene import BodySpec
-from kinder_garden3d.kinematic3d.table3d import floor_body
+from kinder_garden3d.kinematic3d.table3d import floor_bodies
 
 Vec3 = tuple[float, float, float]
 
@@ -175,11 +174,7 @@ class KinematicCylinderShelf3DEnv(Kinematic3DEnv):
         self.config: KinematicCylinderShelf3DConfig
 
     def constant_bodies(self) -> dict[str, ConstantBody]:
-        floor = floor_body()
-        if self.config.floor_collides:
-            return {"floor": floor}
-        visual = BodySpec(floor.spec.parts, floor.spec.rgba, collide=False)
-        return {"floor": ConstantBody(visual, floor.pos, surface=False)}
+        return floor_bodies(self.config.floor_collides)
 
     def movable_names(self, state: ObjectCentricState) -> list[str]:
         return [c.name for c in self.cylinders]

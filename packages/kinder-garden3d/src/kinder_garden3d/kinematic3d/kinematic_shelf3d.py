@@ -17,8 +17,8 @@ from kinder_garden3d.kinematic3d.base_env import (
 )
 from kinder_garden3d.kinematic3d.geometry import Array, Part
 from kinder_garden3d.kinematic3d.object_types import CUBOID_TYPE, FIXTURE_TYPE
-from kinder_garden3d.kinematic3d.scene import BodySpec, BoxProbe
-from kinder_garden3d.kinematic3d.table3d import floor_body
+from kinder_garden3d.kinematic3d.scene import BoxProbe
+from kinder_garden3d.kinematic3d.table3d import floor_bodies
 
 Vec3 = tuple[float, float, float]
 
@@ -206,11 +206,7 @@ class KinematicShelf3DEnv(Kinematic3DEnv):
         self._probe = BoxProbe()
 
     def constant_bodies(self) -> dict[str, ConstantBody]:
-        floor = floor_body()
-        if self.config.floor_collides:
-            return {"floor": floor}
-        visual = BodySpec(floor.spec.parts, floor.spec.rgba, collide=False)
-        return {"floor": ConstantBody(visual, floor.pos, surface=False)}
+        return floor_bodies(self.config.floor_collides)
 
     def movable_names(self, state: ObjectCentricState) -> list[str]:
         return [b.name for b in self.cubes]

@@ -51,6 +51,16 @@ def floor_body() -> ConstantBody:
     return ConstantBody(BodySpec((Part("box", (3.0, 3.0, 0.005)),), FLOOR), (0.0, 0.0, -0.01))
 
 
+def floor_bodies(collides: bool, surface: bool = True) -> dict[str, ConstantBody]:
+    """The floor entry of an env's ``constant_bodies``: upstream's floor as a collision body
+    (a support surface unless ``surface`` is False) when it ``collides``, else drawn only."""
+    floor = floor_body()
+    if collides:
+        return {"floor": ConstantBody(floor.spec, floor.pos, surface=surface)}
+    visual = BodySpec(floor.spec.parts, floor.spec.rgba, collide=False)
+    return {"floor": ConstantBody(visual, floor.pos, surface=False)}
+
+
 class Table3DEnv(Kinematic3DEnv):
     """Pick up any cube from a table and hold it above the table.
 
@@ -123,11 +133,7 @@ class Table3DEnv(Kinematic3DEnv):
         self._probe = BoxProbe()
 
     def constant_bodies(self) -> dict[str, ConstantBody]:
-        if self.config.floor_collides:
-            return {"floor": floor_body()}
-        floor = floor_body()
-        visual = BodySpec(floor.spec.parts, floor.spec.rgba, collide=False)
-        return {"floor": ConstantBody(visual, floor.pos, surface=False)}
+        return floor_bodies(self.config.floor_collides)
 
     def movable_names(self, state: ObjectCentricState) -> list[str]:
         return [c.name for c in self.cubes]
