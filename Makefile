@@ -9,7 +9,7 @@ export SDL_VIDEODRIVER ?= dummy
 export MUJOCO_GL ?= egl
 PYTEST_ARGS ?=
 
-.PHONY: help bootstrap sync system-deps demo test test-all lint typecheck fmt bench docs results-doc datasets clean
+.PHONY: help bootstrap sync system-deps demo test test-all lint typecheck fmt bench docs results-doc conformance-table datasets clean
 
 help:  ## List the targets.
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
@@ -62,6 +62,9 @@ docs: sync  ## Regenerate docs/envs/ pages for every registered id.
 
 results-doc: sync  ## Regenerate docs/results.md from the summaries in benchmarks/results/.
 	$(UV) run --no-sync python tools/gen_results_doc.py
+
+conformance-table: sync  ## Regenerate docs/conformance.md from the conformance tests (slow ones included).
+	$(UV) run --no-sync python tools/conformance/table.py
 DATASETS ?=
 datasets: sync  ## Collect, build and describe the demo datasets (DATASETS="a b" for some; resumable).
 	time nice -n 10 $(UV) run --no-sync kinder demos datasets $(DATASETS) --executor inline --no-progress

@@ -1,61 +1,77 @@
-"""Write docs/conformance.md: per id, how our env matches upstream kindergarden 0.2.5.
+"""Write docs/conformance.md: per id, whether our env conforms to upstream kindergarden 0.2.5.
 
-For every registered id it loads the id's fixture (``packages/*/tests/data/conformance/``, recorded
-by ``record_upstream.py``) and runs the ``kinder_core.conformance`` checks: the reset
-distribution (every feature: constants equal, range and two-sample KS on as many seeds as upstream
-recorded, ours from seed 1000), seeded resets (same seed, same state), and every recorded
-trajectory replayed from upstream's state (first divergence, maximum error, at the family's
-tolerance). Kept deviations come from ``DEVIATIONS`` below.
+The verdicts are the conformance tests' own: the script runs ``test_conformance_*.py`` of
+kinder-garden2d and kinder-garden3d (slow tests included) with the ``harvest`` plugin, which
+writes each test's outcome and the figures and tolerance it recorded (pytest's
+``record_property``). So the table applies exactly the rules the tests apply (per-feature
+tolerances, pooled exchangeable objects, kept deviations, documented geometry divergences) and
+cannot disagree with ``make test-all``. Each registered id gets one row; an id no test covers says
+why (``UNCOVERED``).
 
 Usage (from the repository root):
-    .venv/bin/python tools/conformance/table.py [--out docs/conformance.md] [--family NAME]
+    .venv/bin/python tools/conformance/table.py [--out docs/conformance.md] [--fast]
+        [--family NAME]
 
-``--family`` (a category or a family) limits the run to those ids and keeps the other rows of the
-existing file as they are.
+``--fast`` runs only the default (not slow) tests. ``--family`` (a category or a family)
+limits the run to those ids and keeps the other rows of the existing file as they are.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import re
+import subprocess
 import sys
-from dataclasses import dataclass
+import tempfile
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
 
 from record_upstream import expand_family, family_of  # noqa: E402
 
 import kinder_core  # noqa: E402
-from kinder_core.conformance import (  # noqa: E402
-    check_resets,
-    check_seeded_resets,
-    check_transitions,
-    fixture_name,
-    load_fixture,
-)
 from kinder_core.registration import CATEGORIES, FAMILY_SOURCES  # noqa: E402
 
 OUT = ROOT / "docs" / "conformance.md"
-# Transition tolerance per category (absolute, on every state feature, reward and termination).
-TOLERANCES: dict[str, float] = {"Kinematic2D": 1e-9, "Kinematic3D": 1e-9}
+#: The test files of each category (relative to the repository root).
+TEST_FILES: dict[str, list[str]] = {
+    "Kinematic2D": ["packages/kinder-garden2d/tests/test_conformance_kinematic2d.py"],
+    "Dynamic2D": ["packages/kinder-garden2d/tests/test_conformance_dynamic2d.py"],
+    "Kinematic3D": ["packages/kinder-garden3d/tests/test_conformance_kinematic3d.py"],
+    "Dynamic3D": [
+        "packages/kinder-garden3d/tests/test_conformance_dynamic3d.py",
+        "packages/kinder-garden3d/tests/test_conformance_limb3d.py",
+    ],
+}
+#: Which column a test feeds, by a word in its name; other tests of an id (feature names, the
+#: comparison's own sanity check) count towards the verdict only.
+ASPECTS: dict[str, tuple[str, ...]] = {
+    "distribution": ("distribution", "recorded_seed"),
+    "seed for seed": ("seeded",),
+    "transitions": ("transition", "first_steps", "one_step"),
+}
+#: What a missing seed-for-seed comparison means, per category.
+NO_SEED_FOR_SEED: dict[str, str] = {
+    "Dynamic3D": "not compared: the scene settles in MuJoCo and our draws are not upstream's "
+    "draw for draw; the distribution column compares them",
+    "Kinematic3D": "not compared: the draws are not upstream's draw for draw; the distribution "
+    "column compares them",
+}
 # Differences from upstream that we keep on purpose, per category and per family, and why.
 CATEGORY_DEVIATIONS: dict[str, str] = {
     "Kinematic2D": "Outer walls 1.0 thick instead of 2 × the step (not observed; a held object "
     "swung on the arm cannot leave the world); numpy rendering.",
-    "Dynamic2D": "Checked by packages/kinder-garden2d/tests/test_conformance_dynamic2d.py: a "
-    "step from upstream's state equals upstream's own reload-then-step at 1e-9 (upstream's "
-    "uninterrupted runs differ from its reloads by up to 3e-2 within 30 random steps, and by "
-    "far more once a reload changes a grasp or a topple, so no tolerance against them is sound: "
-    "tools/conformance/dynamic2d_reload.py records both). Kept: the PushT goal compares the "
-    "wrapped angle difference (upstream compares raw angles); a held scoop is attached with the "
-    "robot already in place.",
-    "Dynamic3D": "Checked by packages/kinder-garden3d/tests/test_conformance_dynamic3d.py "
-    "(values rounded to 1 mm / 0.01 first; one-step transitions from upstream's states with "
-    "per-group tolerances). Kept: the arm's PD runs every physics step (upstream holds one "
-    "torque per action: Dynamic3DConfig(arm_control='held_torque')); 1 ms physics steps; the "
-    "primitive-shape robot and gripper.",
+    "Dynamic2D": "The PushT goal compares the wrapped angle difference (upstream compares raw "
+    "angles); a held scoop is attached with the robot already in place.",
+    "Dynamic3D": "The arm's PD runs every physics step (upstream holds one torque per action: "
+    "Dynamic3DConfig(arm_control='held_torque')); 1 ms physics steps; the primitive-shape "
+    "robot and gripper.",
 }
 DEVIATIONS: dict[str, str] = {
     "ClutteredRetrieval2D": "The robot start's free-space component is found on a 0.02 grid, "
@@ -100,91 +116,150 @@ DEVIATIONS: dict[str, str] = {
     "o20 bowls variants keep the earlier layout. Our dropped blocks bounce further and stack up "
     "to three high (upstream's two): their positions are compared by the KS test alone.",
 }
+#: Registered ids with no conformance fixture, and why.
+UNCOVERED: dict[str, str] = {}
 HEADER = """# Conformance to upstream kindergarden 0.2.5
 
-Generated by `.venv/bin/python tools/conformance/table.py` from the fixtures recorded with
-`tools/conformance/record_upstream.py` (format and usage: `tools/conformance/README.md`); do not
-edit by hand.
+Generated by `.venv/bin/python tools/conformance/table.py` from the conformance tests' own
+verdicts ({which}); do not edit by hand. The tests compare our envs with
+fixtures recorded from upstream by `tools/conformance/record_upstream.py` (format, recording and
+the family rules: `tools/conformance/README.md` and each test module's docstring); `make test`
+runs their fast part and `make test-all` all of them.
 
-Columns: **distribution**: features whose reset distribution matches upstream's (constants equal;
-sampled features: the same range, allowing for sample size, and a two-sample KS test at
-α = 0.001 over all of an id's features; ours on seeds 1000.. against upstream's seeds 0..N−1;
-see `kinder_core.conformance.compare_resets`); **seed for seed**: stored upstream seeds whose
-initial state ours reproduces within the tolerance; **transitions**: recorded trajectories (random
-and scripted: contact, grasp, carry, press, push) that ours follows step for step from upstream's
-state within the tolerance; **first divergence**: the earliest step where a trajectory left
-upstream's (trajectory, step, feature, error); **max error**: the largest state error over all
-trajectories.
+Columns: **verdict**: *conforms* (every test of the id passes), *conforms, kept deviation* (it
+passes with a kept difference the tests name: an expected failure, or a trajectory stopped where
+upstream's and our collision shapes disagree), *differs* (a test fails; its message is given) or
+*not recorded* (no fixture; the reason). **distribution**: reset distributions feature by
+feature (constants equal, sampled features by range and a two-sample KS test; ours on seeds
+1000.. against upstream's seeds 0..N−1). **seed for seed**: upstream's stored seeds whose
+initial state ours reproduces. **transitions**: recorded trajectories (random and scripted:
+contact, grasp, carry, press, push) replayed from upstream's states; kinematic families step for
+step, dynamic ones one step at a time from upstream's state before each step (upstream cannot
+reproduce its own dynamic runs from its state vector). **first divergence**: where a
+trajectory stops being compared, and why. **tolerance**: what the transition test allows.
+Figures are measured by the tests on this run.
 """
 
 
 @dataclass
-class Row:
-    """One id's line of the table."""
+class TestResult:
+    """One test's verdict for one id (a line of the harvest file)."""
 
-    env_id: str
-    cells: list[str]
-
-    def markdown(self) -> str:
-        return "| " + " | ".join([f"`{self.env_id}`", *self.cells]) + " |"
-
-
-def fixture_path(env_id: str) -> Path | None:
-    dist = FAMILY_SOURCES[family_of(env_id)].distribution
-    path = ROOT / "packages" / dist / "tests" / "data" / "conformance" / fixture_name(env_id)
-    return path if path.exists() else None
+    test: str
+    outcome: str  # passed, failed, xfailed, skipped, error
+    message: str
+    slow: bool
+    properties: dict[str, str] = field(default_factory=dict)
 
 
-def row_for(env_id: str) -> Row:
+def _cell(text: str) -> str:
+    """Text safe inside a markdown table cell."""
+    return " ".join(text.replace("|", "\\|").split())
+
+
+def env_id_of(param: str) -> str | None:
+    """The registered id a test parameter names (a fixture stem or a Limb variant)."""
+    for candidate in (f"kinder/{param}-v0", f"kinder/LimbRepositioning3D-{param}-v0"):
+        if candidate in KNOWN_IDS:
+            return candidate
+    return None
+
+
+KNOWN_IDS: set[str] = set()
+
+
+def run_tests(files: list[str], fast: bool, keyword: str | None) -> list[dict[str, object]]:
+    """Run the conformance tests of ``files`` (per package) with the harvest plugin."""
+    lines: list[dict[str, object]] = []
+    by_package: dict[Path, list[str]] = {}
+    for f in files:
+        by_package.setdefault(ROOT / Path(f).parents[1], []).append(str(ROOT / f))
+    for package, tests in sorted(by_package.items()):
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "results.jsonl"
+            env = {
+                **os.environ,
+                "KINDER_CONFORMANCE_RESULTS": str(out),
+                "PYTHONPATH": os.pathsep.join(
+                    [str(HERE), *filter(None, [os.environ.get("PYTHONPATH")])]
+                ),
+            }
+            cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "harvest"]
+            cmd += ["-m", "not slow" if fast else "slow or not slow", *tests]
+            if keyword:
+                cmd += ["-k", keyword]
+            print("$", " ".join(cmd), flush=True)
+            subprocess.run(cmd, cwd=package, env=env, check=False)
+            if not out.exists():
+                raise SystemExit(f"{package}: pytest wrote no results (see its output above)")
+            lines += [json.loads(line) for line in out.read_text().splitlines()]
+    return lines
+
+
+def _aspect(test: str) -> str | None:
+    for aspect, words in ASPECTS.items():
+        if any(w in test for w in words):
+            return aspect
+    return None
+
+
+def _aspect_cell(results: list[TestResult]) -> str:
+    """One column: the failing test's message, else the figures of the fullest test that ran
+    (a slow test over a fast one)."""
+    if not results:
+        return ""
+    bad = [r for r in results if r.outcome in ("failed", "error")]
+    if bad:
+        return f"✗ {bad[0].test}: {bad[0].message}"
+    kept = [r for r in results if r.outcome == "xfailed"]
+    ranked = sorted(results, key=lambda r: (r.slow, "figures" in r.properties))
+    figures = ranked[-1].properties.get("figures", "passed")
+    if kept:
+        return f"✓ kept difference: {kept[0].message}; {figures}"
+    return f"✓ {figures}"
+
+
+def row_for(env_id: str, results: list[TestResult]) -> str:
     family = family_of(env_id)
     category = FAMILY_SOURCES[family].category
     deviation = " ".join(
         d for d in (CATEGORY_DEVIATIONS.get(category, ""), DEVIATIONS.get(family, "")) if d
     )
-    path = fixture_path(env_id)
-    if path is None:
-        return Row(env_id, ["not recorded", "", "", "", "", "", deviation])
-    fx = load_fixture(path)
-    env = kinder_core.make(env_id)
-    tol = TOLERANCES.get(category)
-    ours = list(env.unwrapped.box_space.feature_names)  # type: ignore[attr-defined]
-    if ours != fx.feature_names:
-        # The generic checks compare vectors feature by feature (BalanceBeam3D observes two
-        # more); the family's own test maps them by name.
-        extra = len(ours) - len(fx.feature_names)
-        cell = f"not compared here: {extra:+d} features against upstream's"
-        return Row(env_id, [cell, "", "", "", "", "", deviation])
-    dist = check_resets(env, fx)
-    n_ok = sum(f.ok for f in dist.features)
-    dist_cell = f"{n_ok}/{len(dist.features)}"
-    if not dist.ok:
-        dist_cell += " (" + "; ".join(f"{f.name}: {f.detail}" for f in dist.failures[:3]) + ")"
-    atol = 1e-9 if tol is None else tol
-    seeded = check_seeded_resets(env, fx, atol=atol)
-    seeded_cell = f"{seeded.matched}/{seeded.total}"
-    if tol is None:
-        return Row(env_id, [dist_cell, seeded_cell, "no tolerance set", "", "", "", deviation])
-    reports = check_transitions(env, fx, atol=tol)
-    ok = sum(r.ok for r in reports)
-    first = next((r for r in reports if not r.ok), None)
-    first_cell = "none"
-    if first is not None and first.first_divergence is not None:
-        d = first.first_divergence
-        what = d.feature if d.what == "state" else d.what
-        first_cell = f"{first.name}, step {d.step}, {what}, {d.error:.3g}"
-    max_err = max((r.max_error for r in reports), default=0.0)
-    return Row(
-        env_id,
-        [
-            dist_cell,
-            seeded_cell,
-            f"{ok}/{len(reports)}",
-            first_cell,
-            f"{max_err:.2g}",
-            f"{tol:g}",
-            deviation,
-        ],
+    if not results:
+        reason = UNCOVERED.get(env_id, "no fixture recorded")
+        cells = [f"not recorded: {reason}", "", "", "", "", "", deviation]
+        return "| " + " | ".join([f"`{env_id}`", *map(_cell, cells)]) + " |"
+    by_aspect: dict[str, list[TestResult]] = {a: [] for a in ASPECTS}
+    for r in results:
+        aspect = _aspect(r.test)
+        if aspect is not None:
+            by_aspect[aspect].append(r)
+    failed = [r for r in results if r.outcome in ("failed", "error")]
+    divergence = "; ".join(
+        r.properties["divergence"] for r in by_aspect["transitions"] if "divergence" in r.properties
     )
+    if failed:
+        verdict = f"differs ({len(failed)} of {len(results)} tests fail)"
+    elif any(r.outcome == "xfailed" for r in results) or divergence:
+        verdict = "conforms, kept deviation"
+    else:
+        verdict = "conforms"
+    seeded = _aspect_cell(by_aspect["seed for seed"]) or NO_SEED_FOR_SEED.get(category, "")
+    transitions = by_aspect["transitions"]
+    tolerance = next(
+        (r.properties["tolerance"] for r in transitions if "tolerance" in r.properties), ""
+    )
+    first = divergence or ("none" if transitions and not failed else "")
+    cells = [
+        verdict,
+        _aspect_cell(by_aspect["distribution"]),
+        seeded,
+        _aspect_cell(transitions),
+        first,
+        tolerance,
+        deviation,
+    ]
+    return "| " + " | ".join([f"`{env_id}`", *map(_cell, cells)]) + " |"
 
 
 def read_rows(path: Path) -> dict[str, str]:
@@ -199,29 +274,77 @@ def read_rows(path: Path) -> dict[str, str]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--fast", action="store_true", help="only the default (not slow) tests")
     parser.add_argument("--family", help="a category or a family: regenerate only its rows")
     args = parser.parse_args(argv)
     all_ids = kinder_core.list_envs()
+    KNOWN_IDS.update(all_ids)
     todo = expand_family(args.family) if args.family else all_ids
+    categories = {FAMILY_SOURCES[family_of(i)].category for i in todo}
+    files = [f for c in CATEGORIES if c in categories for f in TEST_FILES[c]]
+    keyword = args.family if args.family and args.family not in CATEGORIES else None
+    start = time.monotonic()
+    results: dict[str, list[TestResult]] = {}
+    suite: list[str] = []
+    for line in run_tests(files, args.fast, keyword):
+        result = TestResult(
+            test=str(line["test"]),
+            outcome=str(line["outcome"]),
+            message=str(line["message"]),
+            slow=bool(line.get("slow")),
+            properties=dict(line["properties"]),  # type: ignore[call-overload]
+        )
+        env_id = env_id_of(str(line["param"])) if line["param"] else None
+        if env_id is None:
+            suite.append(
+                f"- `{result.test}`"
+                + (f" [{line['param']}]" if line["param"] else "")
+                + f": {result.outcome}"
+                + (f" ({_cell(result.message)})" if result.message else "")
+            )
+        else:
+            results.setdefault(env_id, []).append(result)
     lines = read_rows(args.out) if args.family else {}
     for env_id in todo:
-        lines[env_id] = row_for(env_id).markdown()
+        lines[env_id] = row_for(env_id, results.get(env_id, []))
         print(lines[env_id], flush=True)
-    out = [HEADER]
+    minutes = (time.monotonic() - start) / 60
+    which = "the default tests only" if args.fast else "every test, slow ones included"
+    if not args.family:
+        which += f"; {minutes:.0f} minutes on the project's 2-core machine"
+    out = [HEADER.format(which=which)]
+    out.append("\n## Summary\n")
+    out.append("| category | ids | conforms | conforms, kept deviation | differs | not recorded |")
+    out.append("|---|---|---|---|---|---|")
+    for category in CATEGORIES:
+        ids = [i for i in all_ids if FAMILY_SOURCES[family_of(i)].category == category]
+        verdicts = [lines.get(i, "").split(" | ")[1] if lines.get(i) else "" for i in ids]
+        count = [
+            sum(v == "conforms" for v in verdicts),
+            sum(v == "conforms, kept deviation" for v in verdicts),
+            sum(v.startswith("differs") for v in verdicts),
+            sum(v.startswith("not recorded") for v in verdicts),
+        ]
+        out.append(f"| {category} | {len(ids)} | " + " | ".join(map(str, count)) + " |")
     for category in CATEGORIES:
         ids = [i for i in all_ids if FAMILY_SOURCES[family_of(i)].category == category]
         out.append(f"\n## {category}\n")
         out.append(
-            "| id | distribution | seed for seed | transitions | first divergence | max error "
+            "| id | verdict | distribution | seed for seed | transitions | first divergence "
             "| tolerance | kept deviations |"
         )
         out.append("|---|---|---|---|---|---|---|---|")
         for env_id in ids:
-            out.append(lines.get(env_id, Row(env_id, ["not run"] + [""] * 6).markdown()))
+            out.append(lines.get(env_id, f"| `{env_id}` | not run |  |  |  |  |  |  |"))
+    if suite:
+        out.append("\n## Suite-wide checks\n")
+        out += suite
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text("\n".join(out) + "\n")
+    tmp = args.out.with_suffix(".tmp")
+    tmp.write_text("\n".join(out) + "\n")
+    tmp.replace(args.out)
     print(f"wrote {args.out}")
 
 

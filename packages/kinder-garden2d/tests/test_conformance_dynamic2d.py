@@ -36,6 +36,7 @@ import pytest
 import kinder_core
 from kinder_core.conformance import (
     Fixture,
+    RecordProperty,
     check_seeded_resets,
     compare_resets,
     load_fixture,
@@ -68,13 +69,16 @@ def test_every_dynamic2d_id_has_a_fixture() -> None:
         assert (RELOAD / f"{stem}.json").exists(), f"no reload record for {env_id}"
 
 
-def test_seeded_resets_equal_upstream(fixture: Fixture) -> None:
+def test_seeded_resets_equal_upstream(fixture: Fixture, record_property: RecordProperty) -> None:
     env = kinder_core.make(fixture.env_id)
     report = check_seeded_resets(env, fixture, atol=ATOL)
+    record_property("conformance_figures", f"{report.matched}/{report.total} seeds")
     assert report.ok, report
 
 
-def test_transitions_equal_upstream_reload_then_step(fixture: Fixture) -> None:
+def test_transitions_equal_upstream_reload_then_step(
+    fixture: Fixture, record_property: RecordProperty
+) -> None:
     env = kinder_core.make_object_centric(fixture.env_id)
     record = _reload_record(fixture)
     checked = 0
@@ -91,6 +95,14 @@ def test_transitions_equal_upstream_reload_then_step(fixture: Fixture) -> None:
                 f"upstream reloaded {expected[i]!r}"
             )
             checked += 1
+    record_property(
+        "conformance_tolerance",
+        f"{ATOL:g} against upstream's own reload-then-step (upstream's uninterrupted runs are "
+        "not reproducible from its state vector, module docstring)",
+    )
+    record_property(
+        "conformance_figures", f"{checked} steps of {len(fixture.trajectories)} trajectories"
+    )
     assert checked >= len(fixture.trajectories)
 
 
@@ -111,7 +123,9 @@ def test_one_step_errors_equal_upstreams_own(fixture: Fixture) -> None:
 
 
 @pytest.mark.slow
-def test_reset_distributions_match_upstream(fixture: Fixture) -> None:
+def test_reset_distributions_match_upstream(
+    fixture: Fixture, record_property: RecordProperty
+) -> None:
     """On development seeds (1000 on), compared with upstream's recorded seeds: constants equal,
     sampled features by the two-sample KS test (the kit's ranges are too strict a check for a few
     dozen samples; seed-for-seed equality is checked above). Our samples are rounded to the
@@ -131,4 +145,9 @@ def test_reset_distributions_match_upstream(fixture: Fixture) -> None:
         if max(abs(f.ours_min), abs(f.ours_max), abs(f.upstream_min), abs(f.upstream_max)) > 1e-6
         and (f.ks is None or f.ks > (f.ks_critical or 0.0))
     ]
+    ok = len(report.features) - len(bad)
+    record_property(
+        "conformance_figures",
+        f"{ok}/{len(report.features)} features; {n} of our seeds against {n} of upstream's",
+    )
     assert not bad, [str(f) for f in bad]

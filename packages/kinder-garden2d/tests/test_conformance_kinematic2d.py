@@ -16,6 +16,7 @@ import pytest
 import kinder_core
 from kinder_core.conformance import (
     Fixture,
+    RecordProperty,
     check_resets,
     check_seeded_resets,
     check_transitions,
@@ -66,31 +67,45 @@ def test_every_kinematic2d_id_has_a_fixture() -> None:
     assert recorded == set(kinder_core.list_envs("Kinematic2D"))
 
 
-def test_transitions_match_upstream(fixture: Fixture) -> None:
+def test_transitions_match_upstream(fixture: Fixture, record_property: RecordProperty) -> None:
     env = kinder_core.make(fixture.env_id)
     reports = check_transitions(env, fixture, atol=ATOL)
     assert reports, f"{fixture.env_id}: the fixture has no trajectories"
+    steps = sum(r.steps for r in reports)
+    worst = max(r.max_error for r in reports)
+    record_property("conformance_tolerance", f"{ATOL:g} on every feature, reward and termination")
+    record_property(
+        "conformance_figures",
+        f"{len(reports)} trajectories, {steps} steps; max error {worst:.2g}",
+    )
     bad = [(r.name, r.first_divergence) for r in reports if not r.ok]
     assert not bad, f"{fixture.env_id} leaves upstream's trajectory: {bad}"
 
 
-def test_reset_distribution_matches_upstream(fixture: Fixture) -> None:
+def test_reset_distribution_matches_upstream(
+    fixture: Fixture, record_property: RecordProperty
+) -> None:
     env = kinder_core.make(fixture.env_id)
-    n = FAST_RESETS_SLOW_IDS.get(fixture.env_id, FAST_RESETS)
-    report = check_resets(env, fixture, num_seeds=min(n, fixture.resets.num_seeds))
+    n = min(FAST_RESETS_SLOW_IDS.get(fixture.env_id, FAST_RESETS), fixture.resets.num_seeds)
+    report = check_resets(env, fixture, num_seeds=n)
+    record_property("conformance_figures", report.summary())
     assert report.ok, [(f.name, f.detail) for f in report.failures]
 
 
-def test_seeded_resets_match_upstream(fixture: Fixture) -> None:
+def test_seeded_resets_match_upstream(fixture: Fixture, record_property: RecordProperty) -> None:
     family = fixture.env_id.split("/")[1].split("-")[0]
     if family not in SEED_FOR_SEED_FAMILIES:
         pytest.skip(f"{fixture.env_id}: distribution match only (see docs/conformance.md)")
     report = check_seeded_resets(kinder_core.make(fixture.env_id), fixture, atol=ATOL)
+    record_property("conformance_figures", f"{report.matched}/{report.total} seeds")
     assert report.ok, report
 
 
 @pytest.mark.slow
-def test_reset_distribution_matches_upstream_on_all_seeds(fixture: Fixture) -> None:
+def test_reset_distribution_matches_upstream_on_all_seeds(
+    fixture: Fixture, record_property: RecordProperty
+) -> None:
     env = kinder_core.make(fixture.env_id)
     report = check_resets(env, fixture)
+    record_property("conformance_figures", report.summary())
     assert report.ok, [(f.name, f.detail) for f in report.failures]

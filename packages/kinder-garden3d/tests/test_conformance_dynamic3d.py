@@ -128,6 +128,7 @@ import pytest
 import kinder_core
 from kinder_core.conformance import (
     Fixture,
+    RecordProperty,
     ks_critical,
     ks_statistic,
     load_fixture,
@@ -340,17 +341,43 @@ def test_feature_names_are_upstreams(fixture: Fixture) -> None:
     assert all(n in names for n in extra)
 
 
-def test_reset_distribution_matches_upstream(fixture: Fixture) -> None:
+def _record_distribution(
+    record_property: RecordProperty, fx: Fixture, problems: list[str], num_ours: int
+) -> None:
+    kept = len(KEPT.get(fx.env_id, ()))
+    compared = len(fx.feature_names) - kept
+    record_property(
+        "conformance_figures",
+        f"{compared - len(problems)}/{compared} features"
+        + (f" ({kept} kept out)" if kept else "")
+        + f"; {num_ours} of our seeds against {fx.resets.num_seeds} of upstream's",
+    )
+    record_property(
+        "conformance_tolerance",
+        "values rounded to 1 mm, 1 mrad, 0.01 (quaternions, velocities); constants to "
+        f"{CONST_ATOL:g}; ranges and KS at alpha {ALPHA:g}",
+    )
+
+
+def test_reset_distribution_matches_upstream(
+    fixture: Fixture, record_property: RecordProperty
+) -> None:
     env = kinder_core.make(fixture.env_id)
     ours = sample_resets(env, range(1000, 1030))
-    assert not compare(ours[:, _columns(env, fixture)], fixture)
+    problems = compare(ours[:, _columns(env, fixture)], fixture)
+    _record_distribution(record_property, fixture, problems, 30)
+    assert not problems
 
 
 @pytest.mark.slow
-def test_reset_distribution_matches_upstream_on_100_seeds(fixture: Fixture) -> None:
+def test_reset_distribution_matches_upstream_on_100_seeds(
+    fixture: Fixture, record_property: RecordProperty
+) -> None:
     env = kinder_core.make(fixture.env_id)
     ours = sample_resets(env, range(1000, 1100))
-    assert not compare(ours[:, _columns(env, fixture)], fixture)
+    problems = compare(ours[:, _columns(env, fixture)], fixture)
+    _record_distribution(record_property, fixture, problems, 100)
+    assert not problems
 
 
 def test_the_comparison_catches_a_shifted_region(fixture: Fixture) -> None:
@@ -403,6 +430,24 @@ def one_step_errors(fx: Fixture, **config: object) -> dict[str, np.ndarray]:
     return {g: np.array(v) for g, v in errors.items()}
 
 
+def record_step_errors(
+    record_property: RecordProperty, errors: dict[str, np.ndarray], env_id: str
+) -> None:
+    """Record the one-step errors (median / max per group) and the tolerances they met."""
+    tol = {**STEP_TOL, **STEP_TOL_BY_ID.get(env_id, {})}
+    steps = len(next(iter(errors.values())))
+    record_property(
+        "conformance_figures",
+        f"{steps} one-step replays; "
+        + ", ".join(f"{g} {np.median(e):.2g}/{e.max():.2g}" for g, e in errors.items()),
+    )
+    record_property(
+        "conformance_tolerance",
+        "one step from upstream's state, median/max per group: "
+        + ", ".join(f"{g} {m:g}/{x:g}" for g, (m, x) in tol.items()),
+    )
+
+
 def over_tolerance(
     errors: dict[str, np.ndarray], median: bool = True, env_id: str = ""
 ) -> dict[str, tuple[float, float]]:
@@ -418,13 +463,19 @@ def over_tolerance(
 
 
 @pytest.mark.slow
-def test_one_step_transitions_match_upstream_within_tolerance(fixture: Fixture) -> None:
+def test_one_step_transitions_match_upstream_within_tolerance(
+    fixture: Fixture, record_property: RecordProperty
+) -> None:
     assert fixture.trajectories
-    over = over_tolerance(one_step_errors(fixture), env_id=fixture.env_id)
+    errors = one_step_errors(fixture)
+    record_step_errors(record_property, errors, fixture.env_id)
+    over = over_tolerance(errors, env_id=fixture.env_id)
     assert not over, f"{fixture.env_id}: one-step errors (median, max) over tolerance: {over}"
 
 
-def test_first_steps_match_upstream_within_tolerance(fixture: Fixture) -> None:
+def test_first_steps_match_upstream_within_tolerance(
+    fixture: Fixture, record_property: RecordProperty
+) -> None:
     """The fast part: the first 5 steps of the first trajectory, replayed one step at a time
     (maximum errors only: 5 steps are too few for a median)."""
     traj = fixture.trajectories[0]
@@ -436,7 +487,9 @@ def test_first_steps_match_upstream_within_tolerance(fixture: Fixture) -> None:
         terminated=traj.terminated[:5],
     )
     short = replace(fixture, trajectories=[first])
-    over = over_tolerance(one_step_errors(short), median=False, env_id=fixture.env_id)
+    errors = one_step_errors(short)
+    record_step_errors(record_property, errors, fixture.env_id)
+    over = over_tolerance(errors, median=False, env_id=fixture.env_id)
     assert not over, f"{fixture.env_id}: one-step errors (median, max) over tolerance: {over}"
 
 

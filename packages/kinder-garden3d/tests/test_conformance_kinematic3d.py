@@ -32,6 +32,7 @@ import pytest
 import kinder_core
 from kinder_core.conformance import (
     Fixture,
+    RecordProperty,
     Trajectory,
     check_resets,
     check_seeded_resets,
@@ -140,23 +141,36 @@ def test_every_kinematic3d_id_has_a_fixture() -> None:
     assert recorded == set(kinder_core.list_envs("Kinematic3D"))
 
 
-def test_transitions_match_upstream(fixture: Fixture) -> None:
+def test_transitions_match_upstream(fixture: Fixture, record_property: RecordProperty) -> None:
     assert fixture.trajectories, f"{fixture.env_id}: the fixture has no trajectories"
     stem = fixture.env_id.removeprefix("kinder/").removesuffix("-v0")
     found = {}
+    stopped = []
     for trajectory in fixture.trajectories:
         div = first_divergence(fixture, trajectory)
         expected = GEOMETRY_DIVERGENCES.get((stem, trajectory.name))
         if div is None and expected is None:
             continue
         if div is not None and expected is not None and div[0] == expected[0]:
+            stopped.append(f"{trajectory.name} at step {div[0]}: {expected[1]}")
             continue
         found[trajectory.name] = (div, expected)
+    record_property(
+        "conformance_tolerance",
+        f"{ATOL:g}; robot.finger_state {FINGER_ATOL:g}; features through the arm's forward "
+        f"kinematics {FK_ATOL:g} (module docstring)",
+    )
+    steps = sum(len(t.actions) for t in fixture.trajectories)
+    record_property(
+        "conformance_figures", f"{len(fixture.trajectories)} trajectories, {steps} steps"
+    )
+    if stopped:
+        record_property("conformance_divergence", "; ".join(stopped))
     assert not found, f"{fixture.env_id}: (ours, expected) first divergences: {found}"
 
 
 @pytest.mark.parametrize("path", SEED_FIXTURES, ids=[p.stem for p in SEED_FIXTURES])
-def test_every_recorded_seed_matches_upstream(path: Path) -> None:
+def test_every_recorded_seed_matches_upstream(path: Path, record_property: RecordProperty) -> None:
     """For the seed-for-seed ids, every one of upstream's recorded seeds (its constants exactly,
     its sampled features to the fixture's 8 significant digits), not only the full vectors."""
     fixture = load_fixture(path)
@@ -170,16 +184,21 @@ def test_every_recorded_seed_matches_upstream(path: Path) -> None:
         for n, v in resets.samples.items()
         if not np.allclose(ours[:, names.index(n)], v, rtol=1e-7, atol=1e-9)
     ]
+    record_property(
+        "conformance_figures",
+        f"{len(names) - len(bad)}/{len(names)} features on all {resets.num_seeds} recorded seeds",
+    )
     assert not bad, f"{fixture.env_id}: features differing from upstream's seeds: {bad}"
 
 
 @pytest.mark.parametrize("path", DISTRIBUTION_FIXTURES, ids=[p.stem for p in DISTRIBUTION_FIXTURES])
-def test_reset_distribution_matches_upstream(path: Path) -> None:
+def test_reset_distribution_matches_upstream(path: Path, record_property: RecordProperty) -> None:
     """Ids whose sampling is not upstream's draw for draw: our resets on seeds 1000.. against
     upstream's recorded seeds, feature by feature."""
     fixture = load_fixture(path)
     env = kinder_core.make(fixture.env_id)
     report = check_resets(env, fixture, num_seeds=100)
+    record_property("conformance_figures", report.summary())
     if fixture.env_id in NOT_CONFORMING_RESETS:
         expected = NOT_CONFORMING_RESETS[fixture.env_id]
         assert {f.name for f in report.failures} == expected, report.failures
@@ -188,7 +207,8 @@ def test_reset_distribution_matches_upstream(path: Path) -> None:
 
 
 @pytest.mark.parametrize("path", SEED_FIXTURES, ids=[p.stem for p in SEED_FIXTURES])
-def test_seeded_resets_match_upstream(path: Path) -> None:
+def test_seeded_resets_match_upstream(path: Path, record_property: RecordProperty) -> None:
     fixture = load_fixture(path)
     report = check_seeded_resets(kinder_core.make(fixture.env_id), fixture, atol=ATOL)
+    record_property("conformance_figures", f"{report.matched}/{report.total} full vectors")
     assert report.ok, report

@@ -20,7 +20,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,6 +29,12 @@ import gymnasium
 import numpy as np
 
 from kinder_core.state import FloatArray
+
+#: The type of pytest's ``record_property`` fixture. Conformance tests record what they measured
+#: and the tolerance they applied under the names ``conformance_figures``,
+#: ``conformance_tolerance`` and ``conformance_divergence``; ``tools/conformance/table.py``
+#: shows them in ``docs/conformance.md`` beside each test's verdict.
+RecordProperty = Callable[[str, object], None]
 
 FORMAT_VERSION = 1
 _ID_RE = re.compile(r"^kinder/(?P<family>[A-Za-z0-9]+)(?:-(?P<variant>.+?))?-v(?P<v>\d+)$")
@@ -304,6 +310,14 @@ class DistributionReport:
     @property
     def failures(self) -> list[FeatureReport]:
         return [f for f in self.features if not f.ok]
+
+    def summary(self) -> str:
+        """One line for the conformance table: how many features match, on how many seeds."""
+        ok = sum(f.ok for f in self.features)
+        return (
+            f"{ok}/{len(self.features)} features; {self.num_ours} of our seeds against "
+            f"{self.num_upstream} of upstream's"
+        )
 
 
 def sample_resets(env: gymnasium.Env[Any, Any], seeds: Iterable[int]) -> FloatArray:
