@@ -17,6 +17,7 @@ from kinder_gym.skills import SkillFailure, execute_skill
 
 O4 = "kinder/SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins-v0"
 O12 = "kinder/SortClutteredBlocks3D-o12-sort_the_blocks_into_the_cupboard-v0"
+BOWLS = "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bowls-v0"
 
 
 @pytest.fixture(scope="module")
@@ -129,6 +130,37 @@ def test_pick_and_drop_reach_their_predictions(env) -> None:
     with pytest.raises(SkillFailure, match="not initiable"):
         execute_skill(model.skill(ops["Drop(robot, cube1)"]).controller, state, [0.5, 0.5],
                       env.transition, 10)  # fmt: skip
+
+
+@pytest.mark.slow
+def test_a_cube_is_dropped_into_its_bowl() -> None:
+    """Upstream's bowl goals are table squares, each with its bowl's centre in it: the Drop
+    aims at the bowl (near its centre), and the cube ends inside it and over its square."""
+    env = make_object_centric(BOWLS)
+    model = create_model(env)
+    state = env.reset(seed=1001)[0]
+    rng = np.random.default_rng(0)
+    ops = {o.name: o for o in model.ground_operators(state)}
+    for name in ("Pick(robot, cube6)", "Drop(robot, cube6)"):
+        before = model.abstract(state)
+        for _ in range(3):
+            controller = model.skill(ops[name]).controller
+            params = controller.sample_parameters(state, rng)
+            try:
+                out = execute_skill(controller, state, params, env.transition, 400)
+            except SkillFailure:
+                continue
+            if out.finished and model.abstract(out.states[-1]) == ops[name].apply(before):
+                state = out.states[-1]
+                break
+        else:
+            raise AssertionError(f"{name} never reached its prediction")
+    cube, bowl = env.objects["cube6"], env.objects["bowl_green"]
+    assert env.goal_atoms(state)["on(cube6, bowl_green_goal_region)"]
+    offset = [state.get(cube, f) - state.get(bowl, f) for f in ("x", "y")]
+    assert float(np.hypot(*offset)) < 0.5 * state.get(bowl, "bb_x") - 0.01
+    assert state.get(cube, "z") < state.get(bowl, "z")  # below the rim: in the bowl
+    env.close()
 
 
 def test_planner_solves_a_seeded_instance(env) -> None:

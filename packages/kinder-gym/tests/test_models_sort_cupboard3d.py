@@ -8,6 +8,7 @@ import pytest
 pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
+from kinder_garden3d.dynamic3d.env import Dynamic3DConfig
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position
 from kinder_gym.testing import check_planning_model
@@ -22,7 +23,9 @@ COMPARTMENT_Y = {"red": -0.145, "green": 0.0, "blue": 0.145}
 
 @pytest.fixture(scope="module")
 def env():
-    e = make_object_centric(O12)
+    """The variant with its ``half_size_objects`` option (2 cm cubes, 35 cm rods), the objects
+    this model's skills move (the module docstring's Limits)."""
+    e = make_object_centric(O12, config=Dynamic3DConfig(task_options=("half_size_objects",)))
     yield e
     e.close()
 

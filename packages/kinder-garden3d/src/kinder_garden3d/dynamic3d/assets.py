@@ -251,8 +251,13 @@ def _bin(name: str, p: Params) -> ObjectAsset:
 
 def _bowl(name: str, p: Params) -> ObjectAsset:
     """A bowl: a disc and a ring of ``segments`` flared wall slats (a primitive stand-in for the
-    RoboCasa mesh). The body origin is the bounding-box centre."""
+    RoboCasa mesh). ``origin`` is its body frame: ``"centre"`` (the bounding-box centre) or
+    ``"rim"`` (the centre of its rim's plane, upstream kindergarden 0.2.5's generated bowl
+    frame, so the observed ``z`` is the rim's height)."""
     d, h, wall, n = float(p["diameter"]), float(p["height"]), float(p["wall"]), int(p["segments"])
+    if p["origin"] not in ("centre", "rim"):
+        raise ValueError(f"bowl {name!r}: origin must be 'centre' or 'rim', got {p['origin']!r}")
+    dz = -h / 2 if p["origin"] == "rim" else 0.0  # the bounding-box centre in the body frame
     base_r = d * 0.3
     rim_r = d / 2 - wall / 2
     flare = math.atan2(rim_r - base_r, h)  # tilt of the slats away from the axis
@@ -266,7 +271,7 @@ def _bowl(name: str, p: Params) -> ObjectAsset:
     )
     lines = [
         f'<geom name="{name}_g0" type="cylinder" size="{base_r:.6g} {wall / 2:.6g}" '
-        f'pos="0 0 {-h / 2 + wall / 2:.6g}" {common}/>'
+        f'pos="0 0 {dz - h / 2 + wall / 2:.6g}" {common}/>'
     ]
     r_mid = (base_r + rim_r) / 2
     for k in range(n):
@@ -274,10 +279,10 @@ def _bowl(name: str, p: Params) -> ObjectAsset:
         lines.append(
             f'<geom name="{name}_s{k}" type="box" '
             f'size="{_f((wall / 2, slat_w / 2, slat_len / 2))}" '
-            f'pos="{_f((r_mid * math.cos(a), r_mid * math.sin(a), 0.0))}" '
+            f'pos="{_f((r_mid * math.cos(a), r_mid * math.sin(a), dz))}" '
             f'quat="{_f(_quat_zy(a, flare))}" {common}/>'
         )
-    return ObjectAsset("\n".join(lines), np.array([d, d, h]), h / 2)
+    return ObjectAsset("\n".join(lines), np.array([d, d, h]), h / 2 - dz)
 
 
 def _quat_zy(yaw: float, pitch: float) -> tuple[float, float, float, float]:
@@ -527,7 +532,7 @@ OBJECT_TYPES: dict[str, tuple[Callable[[str, Params], ObjectAsset], Params]] = {
     "bowl": (
         _bowl,
         {"diameter": 0.12, "height": 0.05, "wall": 0.005, "segments": 16, "mass": 0.25,
-         "rgba": [0.85, 0.85, 0.9, 1.0], "friction": _FRICTION},
+         "rgba": [0.85, 0.85, 0.9, 1.0], "friction": _FRICTION, "origin": "centre"},
     ),
     "drink_box": (
         _drink_box,

@@ -1,12 +1,12 @@
 """The SortClutteredBlocks3D planning model: sort a pile of small blocks into containers by colour.
 
-Covers the table variants (o4 and o20 into bins, o20 into bowls): a pile of cubes (2 cm, as
-upstream's, in the bins variants) lies at the centre of a 1.2 x 0.6 m table (turned 90° as
-upstream's in the bins variants), with four containers around it; each cube's goal region
-(read from the task file, so the colour cycle is not hard-coded) is a box in its container's
-frame. The o12 cupboard variant (nine cubes and three 35 cm rods from the floor onto four
-cupboard levels) has its own model, :mod:`kinder_gym.models.dynamic3d.sort_cupboard3d`, which
-:func:`create_model` returns for it.
+Covers the table variants (o4 and o20 into bins, o20 into bowls): a pile of 2 cm cubes lies
+at the centre of a 1.2 x 0.6 m table (turned 90°, as upstream's), with four containers around
+it; each cube's goal region is read from the task file (so the colour cycle is not
+hard-coded): a box in its bin's frame, or, as upstream's bowl goals, a 10 cm square of the
+table with its bowl's centre in it. The o12 cupboard variant (nine cubes and three rods from
+the floor onto four cupboard levels) has its own model,
+:mod:`kinder_gym.models.dynamic3d.sort_cupboard3d`, which :func:`create_model` returns for it.
 
 Concepts:
 
@@ -34,14 +34,16 @@ moves are the robot's :class:`~kinder_gym.models.dynamic3d.tidybot.TopDownContro
   the pads' width when that keeps another cube's centre out from between the pads (cubes below
   the pad tips do not count); a pick with no such shift fails at once (the planner then tries
   another heading or another order: a cube stacked on another is picked first).
-* Drop: carry the cube straight above a sampled spot of its goal region, lower it until its
-  bottom is 1 cm above the container's floor or 2 cm below its rim, whichever is higher, open
-  the fingers to 4.7 cm (inside a bin's 8 cm), rise, and open fully.
+* Drop: carry the cube straight above a sampled spot of its goal region (into a bowl: a spot
+  within 2 cm of the bowl's centre, kept inside the square), lower it until its bottom is 1 cm
+  above the container's floor or 2 cm below its rim, whichever is higher, open the fingers to
+  4.7 cm (inside a bin's 8 cm), rise, and open fully.
 
 Parameter spaces: Pick ``(rank,)`` in [0, 1]: the gripper heading among the cube's four face
 headings (sorted by closeness to the base's heading; ``rank`` < 0.5 the closest, else the
 second closest). Drop ``(u, v)`` in [0, 1]²: the cube's spot in its goal box, shrunk by 1 cm
-on every side (world-aligned, metres, from the box's low to high corner).
+on every side (world-aligned, metres, from the box's low to high corner); into a bowl, the
+spot at ``(u, v)`` of the 4 cm square around the bowl's centre.
 
 Differences from upstream: no upstream bilevel-planning model exists for this family
 (baselines.md); this one is new.
@@ -134,6 +136,8 @@ RIM_DEPTH = 0.02
 SPOT_MARGIN = 0.01
 #: Distance (m) from the pinch point within which a lifted cube counts as held.
 HOLD_RADIUS = 0.04
+#: Half-side (m) of the square around a bowl's centre where a cube is dropped into it.
+BOWL_SPOT = 0.02
 
 
 @dataclass(frozen=True)
@@ -143,7 +147,9 @@ class SortContext(Dynamic3DContext):
     table: Object
     #: Goal region of each cube, by cube name.
     regions: dict[str, str]
-    #: The container each goal region is attached to, by region name.
+    #: The container each goal region belongs to, by region name: the region's target (a bin)
+    #: or, for a region on the table (upstream's bowl goals are table squares), the bowl
+    #: dropped into it.
     containers: dict[str, Object]
 
 
@@ -311,6 +317,14 @@ class DropController(_SortController):
         u, v = (float(p) for p in self.params[:2])
         spot = region_spot(ctx.env, state, region, 0, u, v, SPOT_MARGIN)
         container = ctx.containers[region]
+        if ctx.env.task.regions[region].target != container.name:  # type: ignore[attr-defined]
+            # A table square with a bowl in it: into the bowl, near its centre, and within the
+            # square (a bowl's centre lies in its square, its rim beyond it).
+            lo = region_spot(ctx.env, state, region, 0, 0.0, 0.0, SPOT_MARGIN)
+            hi = region_spot(ctx.env, state, region, 0, 1.0, 1.0, SPOT_MARGIN)
+            centre = np.array([state.get(container, "x"), state.get(container, "y")])
+            near = centre + (np.array([u, v]) - 0.5) * 2.0 * BOWL_SPOT
+            spot = np.clip(near, np.minimum(lo, hi), np.maximum(lo, hi))
         # The container's lowest point (its frame may be its bottom face), and a 5 mm floor.
         lowest = state.get(container, "z") - ctx.env.scene.objects[container.name].bottom  # type: ignore[attr-defined]
         floor = lowest + 0.005
@@ -323,6 +337,20 @@ class DropController(_SortController):
         return [*self.release_at(target_xy, release_z, yaw, RELEASE), grip_segment(0.0)]
 
 
+def _container(objects: dict[str, Object], region: str, target: str) -> Object:
+    """The container of goal region ``region``: its target when that is an object (a bin), else
+    the object named as the region without ``_goal_region`` (``bowl_red_goal_region``, a table
+    square, holds ``bowl_red``)."""
+    if target != TABLE:
+        return objects[target]
+    name = region.removesuffix("_goal_region")
+    if name not in objects:
+        raise ValueError(
+            f"goal region {region!r} lies on the table; expected an object named {name!r} in it"
+        )
+    return objects[name]
+
+
 def create_model(env: ObjectCentricEnv) -> PlanningModel:
     """The SortClutteredBlocks3D planning model (the table variants: bins o4/o20, bowls o20)."""
     objects: dict[str, Object] = env.objects  # type: ignore[attr-defined]
@@ -333,7 +361,7 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
         placement_goal(env, "SortClutteredBlocks3D", lambda atom: atom[0] in ("on", "in"))
     )
     specs = env.task.regions  # type: ignore[attr-defined]
-    containers = {r: objects[specs[r].target] for r in set(regions.values())}
+    containers = {r: _container(objects, r, specs[r].target) for r in set(regions.values())}
     cubes = tuple(sorted((objects[n] for n in regions), key=lambda o: int(o.name[4:])))
     ctx = SortContext(env, robot_obj, objects[TABLE], regions, containers)
     table_top = float(env.task.fixtures[TABLE].params["height"])  # type: ignore[attr-defined]

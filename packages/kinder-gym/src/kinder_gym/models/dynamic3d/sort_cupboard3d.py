@@ -3,7 +3,9 @@
 The cupboard variant of SortClutteredBlocks3D (the table variants are
 :mod:`kinder_gym.models.dynamic3d.sort_cluttered_blocks3d`, which hands this variant to
 :func:`create_model`). Nine 2 cm cubes and three 35 cm rods lie on the floor on both sides of
-the robot's path; a 45 cm wide cupboard faces the robot 2 m ahead. The red, green and blue cubes
+the robot's path (the variant's ``half_size_objects`` task option; upstream's objects, the
+default, are 4 cm cubes and 70 cm rods, see Limits); a 45 cm wide cupboard faces the robot 2 m
+ahead. The red, green and blue cubes
 go onto shelves 0, 1 and 2 (levels 10 cm high, the lowest at the floor), each rod into its
 colour's compartment of the top shelf (13 cm wide, 45 cm high). Every goal is the env's ``on``
 test: the object's centre in a box 5 cm high above its shelf (cubes) or filling the compartment
@@ -71,6 +73,11 @@ Limits:
   about a quarter fewer actions per object (carrying several cubes at once, or faster grasps).
 * A cube that falls off a shelf, or any cube not yet in once a rod is, leaves no plan (the
   order above); cubes touching on the floor are not checked against each other's grasps.
+* Upstream's objects (the variant's default): its cube and cuboid sizes are half extents, so
+  the rods are 70 cm long, longer than a compartment's inner diagonal (about 55 cm): PlaceRod,
+  which slides a rod in along the compartment's depth, cannot put one in, and BP finds no plan
+  (``Dynamic3DConfig(task_options=("half_size_objects",))`` gives the objects these skills
+  move).
 
 Imports kinder_garden3d (the ``[3d]`` extra).
 """
