@@ -251,6 +251,10 @@ class Dynamic3DEnv(ObjectCentricEnv):
       SweepSimple3D tasks their earlier scene (a flat T wiper with a 3 cm head, 1 cm cubes, the
       wiper's yaw in ±20°, o1's regions for every variant, the goal box without upstream's 5 cm
       margin). The default is upstream's: an upright wiper and 2 cm cubes (the task files' notes).
+    * Kept option, off by default: `Dynamic3DConfig(task_options=("half_size_objects",))`
+      gives SortClutteredBlocks3D-o12 its earlier objects (2 cm cubes, 35 cm rods: upstream's
+      half-extent sizes read as full extents), which the planning model's rod skills need. The
+      default is upstream's: 4 cm cubes and 70 cm rods.
 
     ## References
     KinDER (RSS 2026), environments.md §5; TidyBot++ (CoRL 2024); MuJoCo.
@@ -266,6 +270,10 @@ class Dynamic3DEnv(ObjectCentricEnv):
       30 × 2 × 4 cm head and a 30 cm handle; o50 a 40 cm head and a 1 m handle) and 2 cm cubes
       dropped from up to 10 cm, the wiper's yaw in ±45°, o50's own regions, upstream's goal
       margin; the earlier scene is the `flat_wiper` task option.
+    * v0 (upstream conformance): SortClutteredBlocks3D-o12 has upstream's 4 cm cubes and 70 cm
+      rods and its goal heights (the earlier objects are the `half_size_objects` task option);
+      o20 into bowls has upstream's table turned 90°, 16 cm bowls dropped at any yaw into its
+      10 cm table squares (the goals) and 2 cm blocks of 0.1 kg.
     * v0 (contact update): elliptic friction cones and `impratio = 10` as upstream's robot
       models (MuJoCo's pyramidal cone and 1 before; `Dynamic3DConfig(cone="pyramidal",
       impratio=1)` restores them). A held 2 cm cube slipped about 0.9 mm/s out of the pads
