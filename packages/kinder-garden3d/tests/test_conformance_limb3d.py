@@ -1,7 +1,8 @@
 """LimbRepositioning3D conforms to upstream kindergarden 0.2.5, checked against recorded fixtures.
 
 The fixtures (``tests/data/conformance/LimbRepositioning3D-<variant>.json`` for
-isolated-right-arm and human-left-leg) were recorded from upstream with
+isolated-right-arm, human-left-leg, wheelchair-left-arm and bed-left-leg) were recorded from
+upstream with
 ``tools/conformance/record_upstream.py kinder/LimbRepositioning3D-<variant>-v0 --seeds 100
 --full 10 --random 2 --steps 20 --no-scripts`` (upstream's IKFast module for the Kinova arm had
 to be built against the shared LAPACK and BLAS libraries, which its build script expects as
@@ -14,7 +15,14 @@ The family rule:
   except the arm joints: upstream solves the grasp with IKFast, taking the solution closest to
   its settled configuration, and we solve it with pybullet's damped least squares from the
   retract configuration, which lands on another branch of the 7-joint arm's solutions (same end
-  effector pose, different joints).
+  effector pose, different joints). The wheelchair and bed variants start the solve from
+  upstream's settled arm, so wheelchair-left-arm's arm joints conform too; bed-left-leg's do
+  not (the solve leaves that start for another branch).
+  bed-left-leg's hip abduction (``limb.joint_2``, the only joint its reset perturbs) does not
+  conform either: upstream's draws lie within ±0.010 rad of the nominal start, ours within
+  −0.025 to +0.005 rad, because the rejection of draws that press the leg deeper into the rest
+  of the body depends on the body's shape, and upstream's mesh arms and legs sit closer to the
+  lying leg than our primitive ones.
 * One-step transitions, from each of upstream's recorded states under upstream's action: joint
   positions within ``POS_ATOL`` rad and joint velocities within ``VEL_ATOL`` rad/s; base pose
   and goal exactly. The limb and the robot are our primitive models, whose inertias differ from
@@ -22,7 +30,10 @@ The family rule:
   velocities by slightly different amounts. Measured (40 steps each): isolated-right-arm,
   positions 2.3e-3 rad (robot joint 7; limb 2.5e-3, the wrist), velocities 0.59 rad/s (limb
   wrist) and 0.54 rad/s (robot joint 7); human-left-leg, positions 5.0e-4 rad, velocities
-  0.12 rad/s. The light distal links carry the largest differences.
+  0.12 rad/s; wheelchair-left-arm, positions 2.8e-3 rad and velocities 0.67 rad/s (both the limb
+  wrist, ``limb.joint_5``); bed-left-leg, positions 5.0e-3 rad and velocities 1.20 rad/s (both
+  robot joint 3), hence its wider bounds. The light distal links and the arm near a singular
+  configuration carry the largest differences.
 """
 
 from __future__ import annotations
@@ -37,10 +48,22 @@ import kinder_garden3d  # noqa: F401  (registers the ids)
 from kinder_core.conformance import check_resets, load_fixture
 
 DATA = Path(__file__).parent / "data" / "conformance"
-VARIANTS = ["isolated-right-arm", "human-left-leg"]
-POS_ATOL = 5e-3
-VEL_ATOL = 1.0
+VARIANTS = ["isolated-right-arm", "human-left-leg", "wheelchair-left-arm", "bed-left-leg"]
+#: One-step bounds per variant: (positions in rad, velocities in rad/s).
+ATOL = {
+    "isolated-right-arm": (5e-3, 1.0),
+    "human-left-leg": (5e-3, 1.0),
+    "wheelchair-left-arm": (5e-3, 1.0),
+    "bed-left-leg": (7e-3, 1.5),
+}
 IK_BRANCH = {f"robot.joint_{i}" for i in range(1, 8)}
+#: Features whose reset distribution differs, per variant (see the module docstring).
+RESET_EXCEPTIONS = {
+    "isolated-right-arm": IK_BRANCH,
+    "human-left-leg": IK_BRANCH,
+    "wheelchair-left-arm": set(),
+    "bed-left-leg": IK_BRANCH | {"limb.joint_2"},
+}
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
@@ -51,10 +74,15 @@ def test_reset_distribution(variant: str) -> None:
         report = check_resets(env, fixture)
     finally:
         env.close()
+    allowed = RESET_EXCEPTIONS[variant]
     failed = {f.name for f in report.failures}
-    assert failed <= IK_BRANCH, [f for f in report.failures if f.name not in IK_BRANCH]
+    assert failed <= allowed, [f for f in report.failures if f.name not in allowed]
     limb = [f for f in report.features if f.name.startswith("limb.joint_") and "vel" not in f.name]
-    assert len(limb) == 6 and all(f.kind == "sampled" and f.ok for f in limb)
+    assert len(limb) == 6
+    assert all(f.ok for f in limb if f.name not in allowed)
+    fixture = [f for f in report.features if f.name.startswith("fixture.")]
+    assert len(fixture) == (7 if variant.startswith(("wheelchair", "bed")) else 0)
+    assert all(f.ok for f in fixture)
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
@@ -62,7 +90,10 @@ def test_one_step_transitions_from_upstream_states(variant: str) -> None:
     fixture = load_fixture(DATA / f"LimbRepositioning3D-{variant}.json")
     names = fixture.feature_names
     vel = np.array(["_vel_" in n for n in names])
-    exact = np.array([n.startswith("robot.pos_base") or ".goal_joint_" in n for n in names])
+    exact = np.array(
+        [n.startswith(("robot.pos_base", "fixture.")) or ".goal_joint_" in n for n in names]
+    )
+    pos_atol, vel_atol = ATOL[variant]
     pos = ~vel & ~exact
     env = kinder_core.make(f"kinder/LimbRepositioning3D-{variant}-v0")
     steps = 0
@@ -74,8 +105,8 @@ def test_one_step_transitions_from_upstream_states(variant: str) -> None:
                 obs, reward, terminated, _, _ = env.step(action.copy())
                 err = np.abs(np.asarray(obs) - traj.states[k])
                 assert err[exact].max() == 0.0, (traj.name, k)
-                assert err[pos].max() < POS_ATOL, (traj.name, k, names[int(np.argmax(err * pos))])
-                assert err[vel].max() < VEL_ATOL, (traj.name, k, names[int(np.argmax(err * vel))])
+                assert err[pos].max() < pos_atol, (traj.name, k, names[int(np.argmax(err * pos))])
+                assert err[vel].max() < vel_atol, (traj.name, k, names[int(np.argmax(err * vel))])
                 assert reward == traj.rewards[k] and terminated == bool(traj.terminated[k])
                 prev = traj.states[k]
                 steps += 1

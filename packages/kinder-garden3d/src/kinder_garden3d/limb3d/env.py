@@ -15,6 +15,7 @@ from kinder_core.state import FloatArray
 from kinder_garden3d.kinematic3d.scene import _GRIPPER_TO_FLANGE, TOOL_OFFSET, PyBulletScene
 from kinder_garden3d.limb3d.limbs import (
     END_LINK,
+    LIMB_NAMES,
     LIMBS,
     NUM_LIMB_JOINTS,
     SKIN,
@@ -24,6 +25,7 @@ from kinder_garden3d.limb3d.limbs import (
 from kinder_garden3d.robot.description import RETRACT, robot_description
 
 Vec3 = tuple[float, float, float]
+Rgba = tuple[float, float, float, float]
 Quat = tuple[float, float, float, float]
 NUM_ROBOT_JOINTS = 7
 
@@ -74,6 +76,15 @@ class LimbVariant:
         goal_joints: The goal limb configuration.
         robot_base: The robot base's (x, y, yaw).
         robot_base_z: Height of the robot base frame.
+        torso: The torso's world (position, roll-pitch-yaw) where the scene places the person
+            (wheelchair, bed); ``None``: behind the limb's anchor (human scene).
+        resting: The joint configurations of the other limbs, in ``LIMB_NAMES`` order (the
+            repositioned limb's entry is unused).
+        noise_joints: The limb joints a reset perturbs (``None``: all six).
+        furniture: ``"wheelchair"``, ``"bed"`` or ``None``; it stands at ``furniture_pos``.
+        camera: The orbit camera's (target, distance, yaw, pitch).
+        ik_start: An arm configuration the grasp IK tries first (``None``: none): upstream's
+            settled arm for the variant (measured), so that the solve lands on its branch.
     """
 
     scene: str
@@ -84,6 +95,13 @@ class LimbVariant:
     goal_joints: tuple[float, ...]
     robot_base: Vec3
     robot_base_z: float
+    torso: tuple[Vec3, Vec3] | None = None
+    resting: tuple[tuple[float, ...], ...] = ((0.0,) * NUM_LIMB_JOINTS,) * len(LIMB_NAMES)
+    noise_joints: tuple[int, ...] | None = None
+    furniture: str | None = None
+    furniture_pos: Vec3 = (0.0, 0.0, 0.0)
+    camera: tuple[Vec3, float, float, float] = ((0.730, -0.396, 0.270), 2.0, 140.0, -20.0)
+    ik_start: tuple[float, ...] | None = None
 
 
 # Upstream's isolated tasks: one nominal right-arm start and goal, mirrored or knee-flipped for
@@ -181,6 +199,207 @@ TORSO_CENTER: Vec3 = (0.0, 0.01, 0.23)
 TORSO_HALF: Vec3 = (0.17, 0.12, 0.32)
 HEAD_CENTER: Vec3 = (0.0, 0.02, 0.68)
 HEAD_RADIUS = 0.1
+
+
+def _limb_base_from_torso(limb: str, torso: tuple[Vec3, Vec3]) -> tuple[Vec3, Vec3]:
+    """The limb's anchor (position, roll-pitch-yaw) for a torso pose: the torso composed with
+    the limb's attachment offset."""
+    pos, quat = pb.multiplyTransforms(
+        torso[0], pb.getQuaternionFromEuler(torso[1]), TORSO_TO_LIMB[limb], (0.0, 0.0, 0.0, 1.0)
+    )
+    rpy = pb.getEulerFromQuaternion(quat)
+    return (pos[0], pos[1], pos[2]), (rpy[0], rpy[1], rpy[2])
+
+
+def _resting(by_limb: dict[str, tuple[float, ...]]) -> tuple[tuple[float, ...], ...]:
+    return tuple(by_limb.get(name, (0.0,) * NUM_LIMB_JOINTS) for name in LIMB_NAMES)
+
+
+# Upstream's wheelchair scene: the torso sits at (0, −0.15, 0.75), leaning back 0.2 rad, facing
+# −y; the other arms rest bent on the armrests and the legs hang from the seat (hips flexed 1.3
+# rad, knees 1.57). Each limb has its own start and goal; the camera looks at the torso.
+_WHEELCHAIR_TORSO: tuple[Vec3, Vec3] = ((0.0, -0.15, 0.75), (-0.2, 0.0, 0.0))
+_SEATED_ARM = (0.0, 0.3, 0.2, -1.1, 0.0, 0.0)
+_SEATED_LEG = (-1.3, 0.0, 0.0, 1.57, 0.0, 0.0)
+_WHEELCHAIR_RESTING = _resting(
+    {
+        "left-arm": _mirror_arm(_SEATED_ARM),
+        "right-arm": _SEATED_ARM,
+        "left-leg": _SEATED_LEG,
+        "right-leg": _SEATED_LEG,
+    }
+)
+_ARM_SWING = (0.40335719438145545, 0.44707218123342596, -0.09289427173389816, 0.5010609575327076)
+#: Upstream's arm configuration after it settles at construction, per limb (measured from
+#: kindergarden 0.2.5): the grasp IK's first start.
+_WHEELCHAIR_IK_START: dict[str, tuple[float, ...]] = {
+    "left-arm": (0.7553, 0.9131, 2.9896, -1.8688, 0.9401, -0.8859, 2.7603),
+    "right-arm": (-0.5997, 1.0722, -2.6489, -1.4815, 1.6679, 0.8814, 2.8273),
+    "left-leg": (1.4733, 0.9042, 1.9787, -0.6633, 1.3977, -1.6625, -2.6971),
+    "right-leg": (0.4803, 0.8671, -2.8205, -0.4237, -0.7663, -2.2148, 0.492),
+}
+_BED_IK_START: dict[str, tuple[float, ...]] = {
+    "left-arm": (-1.7143, -0.9082, -1.736, -2.0243, 0.4383, -1.1993, 2.7636),
+    "right-arm": (-1.2648, 1.3256, -1.0911, -0.4493, -1.3502, -2.0359, 0.0472),
+    "left-leg": (-1.7143, -1.4023, -0.9361, -0.2075, 1.0976, -1.633, 3.0439),
+    "right-leg": (-2.0379, -1.5032, -2.0501, -0.237, 1.8675, -1.6545, -0.538),
+}
+_WHEELCHAIR_TASKS: dict[str, tuple[tuple[float, ...], tuple[float, ...], Vec3, float]] = {
+    "left-arm": (
+        _six(_ARM_SWING),
+        (0.7, 0.0, -0.03, 0.8, 0.0, 0.0),
+        (0.9111, -0.6310, -2.6352),
+        0.5052,
+    ),
+    "right-arm": (
+        (-_ARM_SWING[0], _ARM_SWING[1], -_ARM_SWING[2], -_ARM_SWING[3], 0.0, 0.0),
+        (-0.7, 0.0, -0.03, -0.8, 0.0, 0.0),
+        (-0.7040, -1.1983, 0.7716),
+        0.5052,
+    ),
+    "left-leg": (
+        (-1.3, -0.2, 0.0, 0.5, 0.0, 0.0),
+        _SEATED_LEG,
+        (0.9145, -1.2718, -2.4336),
+        -0.1948,
+    ),
+    "right-leg": (
+        (-1.3, 0.2, 0.0, 0.5, 0.0, 0.0),
+        _SEATED_LEG,
+        (-0.8161, -0.5696, -0.3190),
+        -0.1948,
+    ),
+}
+for _limb, (_init, _goal, _base, _z) in _WHEELCHAIR_TASKS.items():
+    _pos, _rpy = _limb_base_from_torso(_limb, _WHEELCHAIR_TORSO)
+    VARIANTS[f"wheelchair-{_limb}"] = LimbVariant(
+        "wheelchair",
+        _limb,
+        _pos,
+        _rpy,
+        _init,
+        _goal,
+        _base,
+        _z,
+        torso=_WHEELCHAIR_TORSO,
+        resting=_WHEELCHAIR_RESTING,
+        furniture="wheelchair",
+        camera=(_WHEELCHAIR_TORSO[0], 3.0, 320.0, -30.0),
+        ik_start=_WHEELCHAIR_IK_START[_limb],
+    )
+
+# Upstream's bed scene: the bed stands 0.35 m up; the person lies on it face up (the torso turned
+# −π/2 about x, head toward +y) at height 0.6143, moved 0.10 m toward the repositioned limb's
+# side, the other limbs straight. Arms start abducted, legs nearly straight (knee 0.18 rad); a
+# leg's reset perturbs only the hip abduction (joint 2).
+_BED_POS: Vec3 = (0.0, 0.0, 0.35)
+_BED_KNEE = 0.18
+_BED_TASKS: dict[str, tuple[tuple[float, ...], tuple[float, ...], Vec3]] = {
+    "left-arm": (
+        _mirror_arm((0.0, 0.3, 0.0, -0.5, 0.0, 0.0)),
+        _mirror_arm((-0.3, 0.0, -0.03, -0.8, 0.0, 0.0)),
+        (0.9078, 0.0224, -2.9401),
+    ),
+    "right-arm": (
+        (0.0, 0.3, 0.0, -0.5, 0.0, 0.0),
+        (-0.3, 0.0, -0.03, -0.8, 0.0, 0.0),
+        (-1.2057, 0.0837, -0.9312),
+    ),
+    "left-leg": (
+        (0.0, 0.0, 0.0, _BED_KNEE, 0.0, 0.0),
+        (-0.5, -0.1, 0.0, 0.8, 0.0, 0.0),
+        (0.9599, -0.7180, -1.7739),
+    ),
+    "right-leg": (
+        (0.0, 0.0, 0.0, _BED_KNEE, 0.0, 0.0),
+        (-0.5, 0.1, 0.0, 0.8, 0.0, 0.0),
+        (-0.8962, -1.2672, 1.4083),
+    ),
+}
+for _limb, (_init, _goal, _base) in _BED_TASKS.items():
+    _side = 1.0 if _limb.startswith("left") else -1.0
+    _torso: tuple[Vec3, Vec3] = ((_side * 0.10, 0.0, 0.6143), (-math.pi / 2, 0.0, 0.0))
+    _pos, _rpy = _limb_base_from_torso(_limb, _torso)
+    VARIANTS[f"bed-{_limb}"] = LimbVariant(
+        "bed",
+        _limb,
+        _pos,
+        _rpy,
+        _init,
+        _goal,
+        _base,
+        0.1552,
+        torso=_torso,
+        noise_joints=(1,) if _limb.endswith("leg") else None,
+        furniture="bed",
+        furniture_pos=_BED_POS,
+        camera=(_torso[0], 3.0, 60.0, -40.0),
+        ik_start=_BED_IK_START[_limb],
+    )
+#: A box of furniture or room: centre and half extents (m) in the furniture frame, and its
+#: roll-pitch-yaw.
+BoxPart = tuple[Vec3, Vec3, Vec3]
+_FLAT: Vec3 = (0.0, 0.0, 0.0)
+
+
+def _span(lo: Vec3, hi: Vec3) -> BoxPart:
+    """An axis-aligned box from its two corners."""
+    return (
+        ((lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, (lo[2] + hi[2]) / 2.0),
+        ((hi[0] - lo[0]) / 2.0, (hi[1] - lo[1]) / 2.0, (hi[2] - lo[2]) / 2.0),
+        _FLAT,
+    )
+
+
+def _both_sides(lo: Vec3, hi: Vec3) -> tuple[BoxPart, BoxPart]:
+    """A box on the +x side and its mirror image across x = 0."""
+    return _span(lo, hi), _span((-hi[0], lo[1], lo[2]), (-lo[0], hi[1], hi[2]))
+
+
+#: The wheelchair (its frame: floor at z = 0, the occupant facing −y), boxes at the extents of
+#: upstream's collision model: seat, reclined backrest and headrest, armrests with their
+#: supports, front wheels, rear casters, footrest with its rails and the under-frame.
+WHEELCHAIR_PARTS: tuple[BoxPart, ...] = (
+    _span((-0.254, -0.438, 0.455), (0.258, 0.097, 0.613)),
+    _span((-0.254, -0.227, 0.357), (0.258, 0.097, 0.455)),
+    ((0.0, 0.113, 0.89), (0.232, 0.055, 0.287), (-0.255, 0.0, 0.0)),
+    _span((-0.118, 0.111, 1.217), (0.116, 0.175, 1.348)),
+    *_both_sides((0.252, -0.364, 0.792), (0.356, 0.131, 0.847)),
+    *_both_sides((0.247, -0.124, 0.76), (0.323, 0.146, 0.792)),
+    *_both_sides((0.205, -0.57, 0.0), (0.298, -0.256, 0.357)),
+    *_both_sides((0.129, 0.151, 0.0), (0.2, 0.361, 0.258)),
+    _span((-0.132, -0.742, 0.106), (0.132, -0.497, 0.166)),
+    *_both_sides((0.132, -0.742, 0.106), (0.209, -0.389, 0.171)),
+    _span((-0.205, -0.52, 0.079), (0.23, 0.1, 0.111)),
+)
+#: The hospital bed (its frame: the mattress centred at the origin, head toward +y): mattress,
+#: headboard, head and foot ends, side and inner rails, lower frame and legs, boxes at the
+#: extents of upstream's collision model.
+BED_PARTS: tuple[BoxPart, ...] = (
+    _span((-0.562, -1.007, -0.131), (0.562, 1.011, 0.122)),
+    _span((-0.452, 1.181, 0.122), (0.459, 1.266, 0.586)),
+    _span((-0.563, 1.011, -0.25), (0.563, 1.245, 0.122)),
+    _span((-0.563, -1.251, -0.237), (0.563, -1.007, 0.122)),
+    *_both_sides((0.487, -1.007, -0.37), (0.561, -0.327, -0.131)),
+    *_both_sides((0.487, 0.289, -0.37), (0.561, 1.011, -0.131)),
+    *_both_sides((0.273, -0.954, -0.37), (0.368, 0.958, -0.131)),
+    _span((-0.552, -1.007, -0.476), (0.552, 1.011, -0.37)),
+    *_both_sides((0.33, -1.19, -0.635), (0.45, -1.007, -0.383)),
+    *_both_sides((0.33, 1.011, -0.635), (0.45, 1.19, -0.383)),
+)
+FURNITURE_PARTS: dict[str, tuple[BoxPart, ...]] = {"wheelchair": WHEELCHAIR_PARTS, "bed": BED_PARTS}
+#: The room of the wheelchair and bed scenes: a 10 m floor slab centred at the origin and three
+#: walls (behind at y = 2.5, sides at x = ±3), drawn only.
+ROOM_PARTS: tuple[BoxPart, ...] = (
+    ((0.0, 0.0, 0.0), (5.0, 5.0, 0.05), _FLAT),
+    ((0.0, 2.5, 0.0), (0.1, 3.0, 5.0), (math.pi / 2, 0.0, math.pi / 2)),
+    ((3.0, 0.0, 0.0), (0.1, 3.0, 5.0), (math.pi / 2, 0.0, 0.0)),
+    ((-3.0, 0.0, 0.0), (0.1, 3.0, 5.0), (math.pi / 2, 0.0, 0.0)),
+)
+FURNITURE_RGBA = (0.83, 0.83, 0.83, 1.0)
+FLOOR_RGBA = (0.8, 0.6, 0.4, 1.0)
+WALL_RGBA = (0.75, 0.86, 0.95, 1.0)
+
 #: Further arm configurations the grasp IK starts from, in order, when the previous start ends
 #: outside the joint limits or away from the target: the retract pose turned about the first
 #: joint, the zero pose, then 24 fixed configurations drawn once (uniform within ±2 rad, a
@@ -241,7 +460,10 @@ class LimbRepositioning3DConfig:
         ik_iterations: pybullet IK refinements toward the grasp pose at reset, per start.
         ik_tolerance: Gripper position error (m) at which an IK solution is accepted.
         image_width, image_height: Size of rendered frames.
-        camera_distance, camera_yaw, camera_pitch: The orbit camera around the limb's anchor.
+        camera_distance, camera_yaw, camera_pitch: Override the scene's orbit camera (upstream's
+            per scene: 2 m, 140°, −20° around the limb's anchor in the isolated and human
+            scenes; 3 m, 320°, −30° around the torso in the wheelchair; 3 m, 60°, −40° around
+            the torso on the bed).
     """
 
     torque_limit: float = 1.0
@@ -254,9 +476,9 @@ class LimbRepositioning3DConfig:
     ik_tolerance: float = 1e-4
     image_width: int = 512
     image_height: int = 512
-    camera_distance: float = 2.0
-    camera_yaw: float = 140.0
-    camera_pitch: float = -20.0
+    camera_distance: float | None = None
+    camera_yaw: float | None = None
+    camera_pitch: float | None = None
 
     def __post_init__(self) -> None:
         if not self.torque_limit > 0:
@@ -302,12 +524,21 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
     at (0.730, −0.396, 0.270), turned π about z) and `human-{left,right}-{arm,leg}` (the same
     limb, attached to a static torso (a box), head (a sphere) and the three other limbs at zero
     joint angles; they are drawn, and the reset keeps the limb out of them, but nothing
-    collides). The robot stands at upstream's placement for each variant.
+    collides), `wheelchair-{left,right}-{arm,leg}` (the person seated in a wheelchair in a room:
+    torso at (0, −0.15, 0.75) leaning back 0.2 rad, the other arms bent on the armrests, the
+    legs hanging from the seat with hips flexed 1.3 rad and knees 1.57 rad) and
+    `bed-{left,right}-{arm,leg}` (the person lying face up on a hospital bed 0.35 m up, moved
+    0.10 m toward the repositioned limb, the other limbs straight). The wheelchair and the bed
+    are boxes at the extents of upstream's collision models, the room a floor and three walls
+    (drawn only); the furniture is one more obstacle the reset keeps the limb out of. Each
+    variant has upstream's nominal start, goal and robot placement.
 
     ## Observation Space
     A 35-D float64 vector: `robot` (17) then `limb` (18). `Limb3DRobot`: `pos_base_x,
     pos_base_y, pos_base_rot, joint_1..joint_7, joint_vel_1..joint_vel_7`; `Limb3DLimb`:
-    `joint_1..joint_6, joint_vel_1..joint_vel_6, goal_joint_1..goal_joint_6`. All unbounded.
+    `joint_1..joint_6, joint_vel_1..joint_vel_6, goal_joint_1..goal_joint_6`. The wheelchair
+    and bed variants append `fixture` (7), a `Limb3DFixture`: the furniture's constant pose
+    `pose_x, pose_y, pose_z, pose_qx, pose_qy, pose_qz, pose_qw` (42-D). All unbounded.
 
     ## Action Space
     A 7-D float32 Box in [−1, 1]: the torque (N m) applied to each arm joint for the step.
@@ -316,12 +547,14 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
     −1 on every step.
 
     ## Starting State
-    Each limb joint is drawn uniformly within ±0.26 rad of the variant's nominal start,
+    Each limb joint (for the bed's legs, only the hip abduction, joint 2) is drawn uniformly
+    within ±0.26 rad of the variant's nominal start,
     intersected with the limb's anatomical range of motion (AAOS normal adult values); a draw
     that overlaps the rest of the body more than 2 mm deeper than the nominal start does is
     redrawn with the half width shrunk by 0.75 (up to 20 draws, then the nominal start); all
     velocities are zero. The arm is solved by pybullet's IK for the end-effector pose at the
-    limb's grasp frame, from the Kinova retract configuration and then from fixed further starts
+    limb's grasp frame, from upstream's settled arm (wheelchair and bed variants), the Kinova
+    retract configuration and then from fixed further starts
     until a solution lies within the arm's joint limits and 0.1 mm of the target (else the
     closest one is kept).
 
@@ -344,8 +577,17 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
     retract configuration and further fixed starts. The weld is the nominal grasp (upstream
     welds wherever its IK left the arm), so on the draws our IK does not reach within 1 mm (on
     seeds 1000–1019: isolated-right-leg 6 of 20, up to 11 cm off; human-right-leg 5 and
-    isolated-left-arm 1, up to 3 cm; none for the other variants) the first steps pull the
-    gripper onto the grasp frame.
+    isolated-left-arm 1, up to 3 cm; wheelchair-left-leg 10, up to 15 cm; wheelchair-right-leg
+    14, up to 8 cm; bed-right-arm 8, up to 8 cm; none for the other variants) the first steps
+    pull the gripper onto the grasp frame.
+    The wheelchair, bed and room are boxes at the extents of upstream's meshes (its collision
+    meshes are convex pieces, which the boxes cover but do not follow), so the clearances the
+    reset compares differ by millimetres: upstream draws the bed's leg abduction within ±0.010
+    rad of the start, these ids within −0.025 to +0.005 rad. Upstream enables contact between
+    the limb and the furniture (friction 0.5, zero contact stiffness and damping); here nothing
+    collides (from seed 0, 20 steps of constant torque, upstream's own runs with that contact
+    switched off were identical for wheelchair-left-arm, wheelchair-left-leg, bed-left-arm and
+    bed-left-leg). Upstream draws the goal as a translucent copy of the limb; these ids do not.
     Upstream registers no step limit; these ids use 2400.
     """
 
@@ -363,6 +605,8 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         self.limb_spec: LimbSpec = LIMBS[self.variant.limb]
         self.robot = Object("robot", ROBOT_TYPE)
         self.limb = Object("limb", LIMB_TYPE)
+        #: The wheelchair or bed (static; its pose is observed, as upstream), else ``None``.
+        self.fixture = Object("fixture", FIXTURE_TYPE) if self.variant.furniture else None
         lim = self.config.torque_limit
         self.action_space = spaces.Box(-lim, lim, shape=(NUM_ROBOT_JOINTS,), dtype=np.float32)
         self.observation_space = ObjectCentricStateSpace(ALL_TYPES)
@@ -374,6 +618,7 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         self._limb_end = -1
         self._constraint = -1
         self._obstacles: list[int] = []
+        self._resting_limbs: list[tuple[int, tuple[float, ...]]] = []
         self._rest_clearance: list[float] = []
         self._grasp_tf = _grasp_transform(self.limb_spec.is_arm)
         self._arm_low, self._arm_high = robot_description().arm_joint_limits
@@ -427,7 +672,16 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
                     physicsClientId=cid,
                 )
                 pb.setCollisionFilterGroupMask(body, link, 0, 0, physicsClientId=cid)
-        self._obstacles = self._build_body(cid) if v.scene == "human" else []
+        self._resting_limbs = []
+        self._obstacles = self._build_body(cid) if v.scene != "isolated" else []
+        self._pose_resting_limbs(cid)
+        if v.furniture is not None:
+            self._build_room(cid)
+            self._obstacles.append(
+                self._build_boxes(
+                    cid, FURNITURE_PARTS[v.furniture], v.furniture_pos, FURNITURE_RGBA
+                )
+            )
         self._set_limb(cid, np.array(v.init_joints))
         self._rest_clearance = [self._distance(cid, b) for b in self._obstacles]
         self._constraint = -1
@@ -435,9 +689,12 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         return cid
 
     def torso_pose(self) -> tuple[Vec3, Quat]:
-        """The torso's world pose in the human scene: behind the limb's anchor by the limb's
-        attachment offset."""
+        """The torso's world pose: where the scene seats or lays the person, else (human
+        scene) behind the limb's anchor by the limb's attachment offset."""
         v = self.variant
+        if v.torso is not None:
+            q = pb.getQuaternionFromEuler(v.torso[1])
+            return v.torso[0], (q[0], q[1], q[2], q[3])
         inv = pb.invertTransform(TORSO_TO_LIMB[v.limb], [0.0, 0.0, 0.0, 1.0])
         p, q = pb.multiplyTransforms(
             v.limb_base_pos, pb.getQuaternionFromEuler(v.limb_base_rpy), *inv
@@ -476,11 +733,59 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
             body = pb.loadURDF(
                 str(limb_urdf_path(other)), pos, quat, useFixedBase=True, physicsClientId=cid
             )
+            self._resting_limbs.append((body, self.variant.resting[LIMB_NAMES.index(other)]))
             bodies.append(body)
         for body in bodies:
             for link in range(-1, pb.getNumJoints(body, physicsClientId=cid)):
                 pb.setCollisionFilterGroupMask(body, link, 0, 0, physicsClientId=cid)
         return bodies
+
+    @staticmethod
+    def _build_boxes(cid: int, parts: tuple[BoxPart, ...], pos: Vec3, rgba: Rgba) -> int:
+        """One static body of boxes at ``pos``; nothing collides with it (distance queries
+        still see it)."""
+        centers = [list(c) for c, _, _ in parts]
+        halves = [list(h) for _, h, _ in parts]
+        quats = [list(pb.getQuaternionFromEuler(r)) for _, _, r in parts]
+        col = pb.createCollisionShapeArray(
+            [pb.GEOM_BOX] * len(parts),
+            halfExtents=halves,
+            collisionFramePositions=centers,
+            collisionFrameOrientations=quats,
+            physicsClientId=cid,
+        )
+        vis = pb.createVisualShapeArray(
+            [pb.GEOM_BOX] * len(parts),
+            halfExtents=halves,
+            visualFramePositions=centers,
+            visualFrameOrientations=quats,
+            rgbaColors=[list(rgba)] * len(parts),
+            physicsClientId=cid,
+        )
+        body = int(pb.createMultiBody(0.0, col, vis, list(pos), physicsClientId=cid))
+        pb.setCollisionFilterGroupMask(body, -1, 0, 0, physicsClientId=cid)
+        return body
+
+    def _build_room(self, cid: int) -> None:
+        """The floor and walls (drawn only)."""
+        self._build_boxes(cid, ROOM_PARTS[:1], (0.0, 0.0, 0.0), FLOOR_RGBA)
+        self._build_boxes(cid, ROOM_PARTS[1:], (0.0, 0.0, 0.0), WALL_RGBA)
+
+    def _pose_resting_limbs(self, cid: int) -> None:
+        """Put the limb's anchor back at its pose, and the other limbs at the scene's resting
+        configuration, at rest. Done on every load, so that nothing a step leaves in them
+        carries over to the next (a step renormalises a tilted fixed base's quaternion, which
+        moves its last bit)."""
+        v = self.variant
+        pb.resetBasePositionAndOrientation(
+            self._limb_body,
+            list(v.limb_base_pos),
+            pb.getQuaternionFromEuler(v.limb_base_rpy),
+            physicsClientId=cid,
+        )
+        for body, joints in self._resting_limbs:
+            for j, q in zip(self._limb_joints, joints, strict=True):
+                pb.resetJointState(body, j, q, 0.0, physicsClientId=cid)
 
     def _set_limb(self, cid: int, joints: NDArray[np.float64]) -> None:
         for idx, q in zip(self._limb_joints, joints, strict=True):
@@ -510,8 +815,14 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         scene.set_robot(r[:10], 0.0)
         for idx, q, dq in zip(scene._arm_idx, r[_R_JOINTS], r[_R_VELS], strict=True):
             pb.resetJointState(scene.robot, idx, float(q), float(dq), physicsClientId=cid)
+        # The fingers are not observed: hold them open and at rest, so that nothing a step
+        # leaves in them carries over to the next.
+        for idx in scene._finger_idx:
+            q = pb.getJointState(scene.robot, idx, physicsClientId=cid)[0]
+            pb.resetJointState(scene.robot, idx, q, 0.0, physicsClientId=cid)
         for idx, q, dq in zip(self._limb_joints, limb[_L_JOINTS], limb[_L_VELS], strict=True):
             pb.resetJointState(self._limb_body, idx, float(q), float(dq), physicsClientId=cid)
+        self._pose_resting_limbs(cid)
         if self._constraint >= 0:
             pb.removeConstraint(self._constraint, physicsClientId=cid)
         self._constraint = self._weld(cid)
@@ -560,9 +871,10 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
 
     def _solve_grasp(self, limb_joints: NDArray[np.float64]) -> NDArray[np.float64]:
         """Arm joints that put the end effector at the grasp frame composed with the grasp
-        transform: iterated pybullet IK from each of :data:`IK_STARTS` in turn (the first is
-        ``robot_initial_joints``), keeping the first solution within the arm's joint limits
-        and ``ik_tolerance`` of the target, else the one closest to the target."""
+        transform: iterated pybullet IK from the variant's ``ik_start`` (if any), then
+        ``robot_initial_joints``, then each of :data:`IK_STARTS` in turn, keeping the first
+        solution within the arm's joint limits and ``ik_tolerance`` of the target, else the
+        one closest to the target."""
         cid = self._client()
         scene = self._scene
         self._set_limb(cid, limb_joints)
@@ -578,7 +890,8 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         arm_pos = [movable.index(j) for j in scene._arm_idx]
         base = self.variant.robot_base
         best, best_err = np.array(self.config.robot_initial_joints), math.inf
-        for start in (self.config.robot_initial_joints, *IK_STARTS):
+        first = () if self.variant.ik_start is None else (self.variant.ik_start,)
+        for start in (*first, self.config.robot_initial_joints, *IK_STARTS):
             q = np.array(start, dtype=np.float64)
             scene.set_robot(np.array([*base, *q]), 0.0)
             for _ in range(self.config.ik_iterations):
@@ -609,7 +922,7 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
 
     # -- the contract ---------------------------------------------------------------------------
     def box_objects(self) -> list[Object]:
-        return [self.robot, self.limb]
+        return [self.robot, self.limb] + ([self.fixture] if self.fixture else [])
 
     def limb_joint_limits(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The limb's range of motion (rad), which bounds the reset perturbation."""
@@ -620,20 +933,25 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         v, cfg = self.variant, self.config
         nominal = np.array(v.init_joints)
         lo, hi = self.limb_joint_limits()
+        free = np.ones(NUM_LIMB_JOINTS)
+        if v.noise_joints is not None:
+            free = np.zeros(NUM_LIMB_JOINTS)
+            free[list(v.noise_joints)] = 1.0
         limb_q = nominal
         for attempt in range(MAX_INIT_DRAWS):
-            noise = cfg.init_joint_noise * INIT_NOISE_DECAY**attempt
+            noise = free * cfg.init_joint_noise * INIT_NOISE_DECAY**attempt
             draw = rng.uniform(np.maximum(nominal - noise, lo), np.minimum(nominal + noise, hi))
             if self.limb_penetration(draw) > -cfg.init_max_penetration:
                 limb_q = draw
                 break
         arm_q = self._solve_grasp(limb_q)
-        return ObjectCentricState.from_features(
-            {
-                self.robot: [*v.robot_base, *arm_q, *([0.0] * NUM_ROBOT_JOINTS)],
-                self.limb: [*limb_q, *([0.0] * NUM_LIMB_JOINTS), *v.goal_joints],
-            }
-        )
+        features: dict[Object, list[float]] = {
+            self.robot: [*v.robot_base, *arm_q, *([0.0] * NUM_ROBOT_JOINTS)],
+            self.limb: [*limb_q, *([0.0] * NUM_LIMB_JOINTS), *v.goal_joints],
+        }
+        if self.fixture is not None:
+            features[self.fixture] = [*v.furniture_pos, 0.0, 0.0, 0.0, 1.0]
+        return ObjectCentricState.from_features(features)
 
     def _transition(self, state: ObjectCentricState, action: FloatArray) -> ObjectCentricState:
         cid = self._load(state)
@@ -674,11 +992,12 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
     def _render_state(self, state: ObjectCentricState) -> NDArray[np.uint8]:
         cfg = self.config
         self._load(state)
+        target, distance, yaw, pitch = self.variant.camera
         return self._scene.capture_orbit(
-            self.variant.limb_base_pos,
-            cfg.camera_distance,
-            cfg.camera_yaw,
-            cfg.camera_pitch,
+            target,
+            distance if cfg.camera_distance is None else cfg.camera_distance,
+            yaw if cfg.camera_yaw is None else cfg.camera_yaw,
+            pitch if cfg.camera_pitch is None else cfg.camera_pitch,
             cfg.image_width,
             cfg.image_height,
         )

@@ -7,8 +7,8 @@ from kinder_core.registration import register_family
 
 FAMILY = "LimbRepositioning3D"
 ENTRY_POINT = "kinder_garden3d.limb3d.env:LimbRepositioning3DEnv"
-#: The scenes built so far, and the limbs of each.
-SCENES = ("isolated", "human")
+#: The scenes, and the limbs of each.
+SCENES = ("isolated", "human", "wheelchair", "bed")
 LIMB_VARIANTS = ("left-arm", "right-arm", "left-leg", "right-leg")
 #: Upstream registers no step limit; 2400 steps are 10 s of simulated time at 240 Hz.
 MAX_EPISODE_STEPS = 2400
