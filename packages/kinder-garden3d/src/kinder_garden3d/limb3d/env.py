@@ -875,6 +875,16 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         ``robot_initial_joints``, then each of :data:`IK_STARTS` in turn, keeping the first
         solution within the arm's joint limits and ``ik_tolerance`` of the target, else the
         one closest to the target."""
+        return self.grasp_arm_joints(limb_joints)[0]
+
+    def grasp_arm_joints(
+        self, limb_joints: NDArray[np.float64], first: tuple[float, ...] | None = None
+    ) -> tuple[NDArray[np.float64], float]:
+        """The arm joints holding the grasp of the limb at ``limb_joints`` and their gripper
+        position error (m), solved as the reset solves it, trying ``first`` (e.g. the arm's
+        current joints, to stay on its branch) before the reset's starts. Planners use it to
+        turn a limb path into an arm path. Moves the simulator's bodies (every transition
+        loads its state first)."""
         cid = self._client()
         scene = self._scene
         self._set_limb(cid, limb_joints)
@@ -890,8 +900,10 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         arm_pos = [movable.index(j) for j in scene._arm_idx]
         base = self.variant.robot_base
         best, best_err = np.array(self.config.robot_initial_joints), math.inf
-        first = () if self.variant.ik_start is None else (self.variant.ik_start,)
-        for start in (*first, self.config.robot_initial_joints, *IK_STARTS):
+        starts = [] if first is None else [first]
+        if self.variant.ik_start is not None:
+            starts.append(self.variant.ik_start)
+        for start in (*starts, self.config.robot_initial_joints, *IK_STARTS):
             q = np.array(start, dtype=np.float64)
             scene.set_robot(np.array([*base, *q]), 0.0)
             for _ in range(self.config.ik_iterations):
@@ -915,10 +927,10 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
             err = float(np.linalg.norm(np.subtract(pos, target_p)))
             inside = bool(np.all(q >= self._arm_low) and np.all(q <= self._arm_high))
             if inside and err < self.config.ik_tolerance:
-                return q
+                return q, err
             if err < best_err:
                 best, best_err = q, err
-        return best
+        return best, best_err
 
     # -- the contract ---------------------------------------------------------------------------
     def box_objects(self) -> list[Object]:

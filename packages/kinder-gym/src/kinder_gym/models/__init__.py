@@ -40,6 +40,7 @@ MODELS: dict[str, str] = {
     "ConstrainedCupboard3D": "kinder_gym.models.dynamic3d.constrained_cupboard3d:create_model",
     "PickPlace3D": "kinder_gym.models.dynamic3d.pick_place3d:create_model",
     "FrankaPickPlace3D": "kinder_gym.models.dynamic3d.franka_pick_place3d:create_model",
+    "LimbRepositioning3D": "kinder_gym.models.dynamic3d.limb_repositioning3d:create_model",
     "Obstruction2D": "kinder_gym.models.kinematic2d.obstruction2d:create_model",
     "ClutteredRetrieval2D": "kinder_gym.models.kinematic2d.clutteredretrieval2d:create_model",
     "ClutteredStorage2D": "kinder_gym.models.kinematic2d.clutteredstorage2d:create_model",

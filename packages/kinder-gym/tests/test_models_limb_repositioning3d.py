@@ -1,0 +1,66 @@
+"""The LimbRepositioning3D (pybullet) model: predicates, the skill, failure and planning."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("kinder_garden3d")
+
+from kinder_core import make_object_centric
+from kinder_gym.models import create_model
+from kinder_gym.models.dynamic3d.limb_repositioning3d import RepositionLimbController
+from kinder_gym.skills import SkillFailure, execute_skill
+
+
+@pytest.fixture(scope="module")
+def env():
+    e = make_object_centric("kinder/LimbRepositioning3D-isolated-left-arm-v0")
+    yield e
+    e.close()
+
+
+def atoms(model, state) -> set[str]:
+    return {str(a) for a in model.abstract(state)}
+
+
+def test_predicates_and_operator(env) -> None:
+    model = create_model(env)
+    state = env.reset(seed=1000)[0]
+    assert atoms(model, state) == {"(NotAtGoal robot limb)"}
+    assert {str(a) for a in model.goal(state)} == {"(AtGoal robot limb)"}
+    there = state.copy()
+    there[env.limb][:6] = there[env.limb][12:18]
+    assert atoms(model, there) == {"(AtGoal robot limb)"}
+    assert [o.name for o in model.ground_operators(state)] == ["RepositionLimb(robot, limb)"]
+
+
+def test_reposition_limb_reaches_the_goal_within_the_torque_bounds(env) -> None:
+    model = create_model(env)
+    state = env.reset(seed=1000)[0]
+    op = model.ground_operators(state)[0]
+    out = execute_skill(model.skill(op).controller, state, [0.5], env.transition, 2400)
+    assert out.terminated and env.goal_reached(out.states[-1])
+    assert env.distance_to_goal(state) > 0.5  # the limb really moved
+    assert all(np.all(np.abs(a) <= 1.0) for a in out.actions)
+
+
+def test_unreachable_waypoint_fails_at_once(env) -> None:
+    state = env.reset(seed=1000)[0]
+    far = state.copy()
+    # Swinging the shoulder 3 rad puts the hand beyond the arm's reach (0.34 m off).
+    far[env.limb][12:18] = [3.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    controller = RepositionLimbController((env.robot, env.limb), env)
+    with pytest.raises(SkillFailure, match="holds the grasp"):
+        execute_skill(controller, far, [0.5], env.transition, 10)
+
+
+def test_planner_solves_a_seeded_instance() -> None:
+    from kinder_bench.baselines.bilevel_planning import plan_reaches_goal
+
+    e = make_object_centric("kinder/LimbRepositioning3D-isolated-right-leg-v0")
+    try:
+        solved, _ = plan_reaches_goal(e, 1000)
+    finally:
+        e.close()
+    assert solved
