@@ -442,6 +442,7 @@ class Dynamic3DEnv(ObjectCentricEnv):
         self._fixture_body = np.zeros(m.nbody, dtype=bool)
         for name in self.task.fixtures:
             self._fixture_body |= self._entity_bodies[name]
+        self._floor_geom = int(m.geom("floor").id)
 
     def _robot_description(self) -> RobotDescription:
         """The robot model this env simulates (the mobile manipulator here)."""
@@ -686,7 +687,11 @@ class Dynamic3DEnv(ObjectCentricEnv):
         heading = math.atan2(frame[1, 0], frame[0, 0])
         return world, heading + yaw
 
-    def _collides(self, entity: str, ignore_fixtures: bool = False) -> bool:
+    def _collides(
+        self, entity: str, ignore_fixtures: bool = False, ignore_floor: bool = False
+    ) -> bool:
+        """Whether ``entity`` penetrates another body (``ignore_floor``: not counting the
+        floor plane)."""
         m, d = self.model, self.data
         mujoco.mj_kinematics(m, d)
         mujoco.mj_collision(m, d)
@@ -699,21 +704,24 @@ class Dynamic3DEnv(ObjectCentricEnv):
         mask = self._entity_bodies[entity]
         mine = mask[bodies]
         hit = deep & (mine[:, 0] ^ mine[:, 1])
+        other = np.where(mine[:, 0], bodies[:, 1], bodies[:, 0])
         if ignore_fixtures:
-            other = np.where(mine[:, 0], bodies[:, 1], bodies[:, 0])
             hit &= ~self._fixture_body[other]
+        if ignore_floor:
+            hit &= ~np.any(geoms == self._floor_geom, axis=1)
         return bool(hit.any())
 
     def _place_object(self, rng: np.random.Generator, name: str, region: str) -> None:
         d = self.data
         qa = int(self.model.jnt_qposadr[self.model.joint(f"{name}_joint").id])
-        bottom = self.scene.objects[name].bottom
+        centre = self.task.regions[region].drop == "centre"
+        lift = 0.0 if centre else self.scene.objects[name].bottom + self.config.placement_gap
         for _ in range(self.config.max_placement_tries):
             point, yaw = self._region_sample(rng, region)
-            point[2] += bottom + self.config.placement_gap
+            point[2] += lift
             d.qpos[qa : qa + 3] = point
             d.qpos[qa + 3 : qa + 7] = yaw_quat(yaw)
-            if not self._collides(name):
+            if not self._collides(name, ignore_floor=centre):
                 return
         raise _PlacementFailure(f"could not place {name!r} in region {region!r} without collisions")
 

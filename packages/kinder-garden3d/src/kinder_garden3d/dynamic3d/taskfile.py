@@ -71,6 +71,11 @@ class RegionSpec:
     ``frame`` names a frame of the target's asset (``None``: the default); ``align`` is
     ``"full"`` (the frame's full orientation), ``"yaw"`` (only its heading) or ``"world"`` (only
     its position). ``yaws`` (k × 2, radians) bound the yaw of objects placed in the region.
+    ``drop`` says what a box's z range bounds for an object placed in it: ``"bottom"`` (the
+    default) its bottom's height, the object released above its support; ``"centre"`` its
+    centre's height, as upstream's ground sampler draws it for 4-value floor ranges (centre in
+    [0, 0.1] m), where an object may start partly below the floor and be pushed out by the
+    contact solver (upstream tests a pose only against the objects placed before it).
     """
 
     name: str
@@ -80,6 +85,7 @@ class RegionSpec:
     boxes: Array
     yaws: Array
     rgba: tuple[float, float, float, float] | None
+    drop: str = "bottom"
 
 
 @dataclass(frozen=True)
@@ -660,8 +666,11 @@ class _Validator:
     def region(
         self, name: str, spec: Any, where: str, entities: dict[str, EntitySpec]
     ) -> RegionSpec:
-        spec = self.obj(spec, where, {"target", "frame", "align", "boxes", "yaw", "rgba"})
+        spec = self.obj(spec, where, {"target", "frame", "align", "boxes", "yaw", "rgba", "drop"})
         target = self.string(spec.get("target"), f"{where}.target")
+        drop = spec.get("drop", "bottom")
+        if drop not in ("bottom", "centre"):
+            raise self.error(f"{where}.drop", f"expected bottom or centre, got {drop!r}")
         if target != GROUND and target not in entities:
             raise self.error(
                 f"{where}.target", f"unknown target {target!r}; known: ground, {sorted(entities)}"
@@ -701,7 +710,14 @@ class _Validator:
                 )
         rgba = self.rgba(spec["rgba"], f"{where}.rgba") if "rgba" in spec else None
         return RegionSpec(
-            name, target, frame, str(align), np.array(boxes), np.radians(np.array(yaws)), rgba
+            name,
+            target,
+            frame,
+            str(align),
+            np.array(boxes),
+            np.radians(np.array(yaws)),
+            rgba,
+            str(drop),
         )
 
     def camera(self, name: str, spec: Any, where: str) -> CameraSpec:
