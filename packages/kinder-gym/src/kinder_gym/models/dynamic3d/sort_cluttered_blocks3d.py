@@ -56,6 +56,13 @@ Limits:
   took planner-free, rounded up to 500; upstream registers no limit). The planner's 60 s
   budget still binds: a step simulates in 30–40 ms, so 2,100 steps cost over 60 s to sample
   once, and BP does not solve o20 in time.
+* o20 into bowls (upstream's layout: bowls in table squares, 2 cm blocks) is solved in 0 of 5
+  development episodes (seed 1000, as before the layout changed): four planning timeouts, and
+  once all ten abstract plans failed within a second (90 skill samples failing at once). In
+  a pile of twenty 2 cm blocks, seed 1001 has nine blocks resting on others, and a pick moves
+  its neighbours (one slid off one block onto another): stacking predicates (``On``,
+  ``Clear``) tried for the pick's precondition changed under such moves, and the exact match
+  of predicted abstract states rejected the picks, so they are not in the model.
 * A cube lying on an edge (tilted in the pile) is grasped as if flat; cubes whose neighbours
   get caught between the pads make the pick's prediction fail and the planner resample.
 * o12 (cupboard): see :mod:`kinder_gym.models.dynamic3d.sort_cupboard3d`.
