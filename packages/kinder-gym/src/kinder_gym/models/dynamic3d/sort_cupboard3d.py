@@ -8,8 +8,9 @@ default, are 4 cm cubes and 70 cm rods, see Limits); a 45 cm wide cupboard faces
 ahead. The red, green and blue cubes
 go onto shelves 0, 1 and 2 (levels 10 cm high, the lowest at the floor), each rod into its
 colour's compartment of the top shelf (13 cm wide, 45 cm high). Every goal is the env's ``on``
-test: the object's centre in a box 5 cm high above its shelf (cubes) or filling the compartment
-(rods), from 2 cm inside the opening to 2 cm before the back.
+test: the object's centre in a box above its shelf (cubes; 2 cm high on shelf 0, the level's
+10 cm on shelves 1 and 2, as upstream's) or filling the compartment (rods), from 2 cm inside the
+opening to 2 cm before the back.
 
 Concepts:
 
