@@ -215,6 +215,22 @@ def test_task_options_patch_the_task_after_the_variant(tmp_path):
         Dynamic3DConfig(task_options="flat_wiper")  # type: ignore[arg-type]
 
 
+CUPBOARD = "SortClutteredBlocks3D/SortClutteredBlocks3D-sort_the_blocks_into_the_cupboard.json"
+
+
+def test_the_cupboard_variant_has_upstreams_objects_and_keeps_the_earlier_ones_as_an_option():
+    """Upstream's cube and cuboid sizes are half extents: 4 cm cubes and 70 cm rods by default;
+    ``half_size_objects`` gives the earlier 2 cm cubes and 35 cm rods."""
+    default, half = load_task(CUPBOARD, 12), load_task(CUPBOARD, 12, ["half_size_objects"])
+    assert default.objects["red_cube1"].params["size"] == 0.04
+    assert default.objects["blue_cuboid1"].params["size"] == [0.03, 0.7, 0.03]
+    assert half.objects["red_cube1"].params["size"] == 0.02
+    assert half.objects["blue_cuboid1"].params["size"] == [0.015, 0.35, 0.015]
+    # Upstream's goal heights: 2 cm above shelf 0, the whole 10 cm level on shelves 1 and 2.
+    assert default.regions["cupboard_0_shelf_0_red_goal"].boxes[0][5] == 0.02
+    assert default.regions["cupboard_0_shelf_1_green_goal"].boxes[0][5] == 0.1
+
+
 def test_a_variant_can_have_its_own_step_limit(tmp_path):
     data = broken(
         max_episode_steps=300,
