@@ -85,6 +85,11 @@ def broken(**changes: Any) -> dict[str, Any]:
             "expected [xmin",
         ),
         (
+            {"regions": {"floor_region": {"drop": "sideways"}}},
+            "regions.floor_region.drop",
+            "expected bottom or centre, got 'sideways'",
+        ),
+        (
             {"regions": {"floor_region": {"yaw": [[10, 0]]}}},
             "regions.floor_region.yaw[0]",
             "lo <= hi",
@@ -291,3 +296,27 @@ def test_a_new_task_needs_no_python(tmp_path):
         assert np.isfinite(env.step(env.action_space.sample())[0].data).all()
     finally:
         env.close()
+
+
+def test_a_centre_drop_draws_the_centre_height_and_may_start_below_the_floor(tmp_path):
+    """``drop: centre`` (upstream's ground sampler for 4-value ranges): the box's z range bounds
+    the object's centre, and a pose partly below the floor is accepted (the settle pushes the
+    object out); ``drop: bottom`` never places it below the floor."""
+
+    def start_heights(drop: str) -> list[float]:
+        task = broken(
+            regions={"floor_region": {"drop": drop, "boxes": [[0.3, -0.3, 0, 0.5, 0.3, 0.1]]}}
+        )
+        env = Dynamic3DEnv(
+            task=write(tmp_path, task, f"{drop}.json"), config=Dynamic3DConfig(settle_actions=0)
+        )
+        out = []
+        for seed in range(12):
+            env.reset(seed=seed)
+            out.append(float(env._qpos_of("cube1")[2]))
+        return out
+
+    centre = start_heights("centre")
+    bottom = start_heights("bottom")
+    assert min(centre) < 0.015 < max(centre) <= 0.1 + 1e-9  # some start partly below the floor
+    assert min(bottom) >= 0.015 - 1e-9 and max(bottom) > 0.1
