@@ -136,6 +136,12 @@ def _committed_reason(agent: str, env_id: str) -> str:
             " (N, and SweepIntoDrawer3D-o5's --max-steps 700, from upstream's env configs in "
             "kinder_bench/data/paper_settings.csv)"
         )
+    if agent == "mpc":
+        return (
+            "mpc runs on CPU here but has not run at any protocol; its cost per episode at the "
+            "paper's settings, where measured, and the campaigns started are in "
+            f"benchmarks/results/mpc.md (the paper's Inf-Time is in the cell): `{command}`{where}"
+        )
     return (
         f"{agent} runs on CPU here but has not run at any protocol; its cost per episode on this "
         f"machine is not measured (the paper's Inf-Time is in the cell): `{command}`{where}"
