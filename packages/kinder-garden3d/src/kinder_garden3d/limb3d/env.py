@@ -878,11 +878,15 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         return self.grasp_arm_joints(limb_joints)[0]
 
     def grasp_arm_joints(
-        self, limb_joints: NDArray[np.float64], first: tuple[float, ...] | None = None
+        self,
+        limb_joints: NDArray[np.float64],
+        first: tuple[float, ...] | None = None,
+        only_first: bool = False,
     ) -> tuple[NDArray[np.float64], float]:
         """The arm joints holding the grasp of the limb at ``limb_joints`` and their gripper
         position error (m), solved as the reset solves it, trying ``first`` (e.g. the arm's
-        current joints, to stay on its branch) before the reset's starts. Planners use it to
+        current joints, to stay on its branch) before the reset's starts (``only_first``: no
+        others, so the answer stays near ``first`` even when it misses). Planners use it to
         turn a limb path into an arm path. Moves the simulator's bodies (every transition
         loads its state first)."""
         cid = self._client()
@@ -901,9 +905,11 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         base = self.variant.robot_base
         best, best_err = np.array(self.config.robot_initial_joints), math.inf
         starts = [] if first is None else [first]
-        if self.variant.ik_start is not None:
-            starts.append(self.variant.ik_start)
-        for start in (*starts, self.config.robot_initial_joints, *IK_STARTS):
+        if not (only_first and first is not None):
+            if self.variant.ik_start is not None:
+                starts.append(self.variant.ik_start)
+            starts += [self.config.robot_initial_joints, *IK_STARTS]
+        for start in starts:
             q = np.array(start, dtype=np.float64)
             scene.set_robot(np.array([*base, *q]), 0.0)
             for _ in range(self.config.ik_iterations):
