@@ -82,22 +82,22 @@ DEVIATIONS: dict[str, str] = {
     "BalanceBeam3D": "The seesaw's hinge is observed (hinge_pos, hinge_vel: 88 features against "
     "upstream's 86; left out of the comparison); its pivot is a box with the footprint of "
     "upstream's triangular-prism mesh.",
-    "Tossing3D": "o2 has no fixture yet (its bin is fixed at x = 2 and its goal box is on the "
-    "floor, as upstream's task file says).",
     "ScoopPour3D": "Upstream reports the scoop's bounding box from its size formula "
-    "(8.9 x 5.4 x 4.2 cm), ours from its geometry (8.5 x 5 x 4.2 cm, upstream's too); only o10 "
-    "has a fixture.",
+    "(8.9 x 5.4 x 4.2 cm), ours from its geometry (8.5 x 5 x 4.2 cm, upstream's too). Upstream's "
+    "contacts sink deeper the heavier the pile (the cubes 0.9 mm below ours under ten cubes, "
+    "2.7 mm under fifty): heights are compared after removing that offset, and the first step "
+    "from upstream's state lifts its cubes by as much (objects tolerance 4e-3 m on o20-o50).",
     "SweepSimple3D": "Upstream's upright wiper and 2 cm cubes dropped from up to 10 cm. Kept: "
     "the wiper's x range is its yaw-0 fit inside upstream's widened region at every yaw "
     "(upstream's rejection sampling lets it come up to 3.7 cm nearer the ends at 45 degrees); "
     "random actions into the side counter turn our primitive robot more than upstream's mesh "
     "robot (base max 0.2 in the test); Dynamic3DConfig(task_options=('flat_wiper',)) gives the "
-    "earlier flat wiper and 1 cm cubes. Only o1 has a fixture; o50 (left side: its own regions, "
-    "a 1 m handle and a 40 cm head) was checked against a 40-seed recording that is not "
-    "committed (756 KB): every feature matches (cubes pooled) except the cubes' angular "
-    "velocity after the settle (ours up to 0.13 rad/s, upstream's 0.03).",
+    "earlier flat wiper and 1 cm cubes. With several cubes, which face a dropped cube lands on is "
+    "chance: pooled, by the KS test alone.",
     "ConstrainedCupboard3D": "The cupboards' side and back panels are as thick as their shelves "
-    "(2 cm; upstream's 1 cm), so the opening is 6 cm wide (upstream's 8 cm).",
+    "(2 cm; upstream's 1 cm), so the opening is 6 cm wide (upstream's 8 cm). The rods are dropped "
+    "from up to 10 cm as upstream's (drop: centre) and on both sides now and then land across one "
+    "another: on o2-o6 their heights, tilts and velocities are compared by the KS test alone.",
     "Dynamo3D": "The chairs' bb_x, bb_y, bb_z are our stand-ins' collision boxes (upstream's "
     "stated footprints; upstream observes 0.5 x 0.5 x 0.9 m, its mesh chairs' site box) and "
     "upstream's chairs still rock after the settle: those features are left out of the test. "
@@ -105,19 +105,43 @@ DEVIATIONS: dict[str, str] = {
     "0.25 m while settling is not needed.",
     "Rearrange3D": "Upstream's mesh drink box still rocks after the settle and lies tipped over "
     "in 3 of 40 seeds, ours stands still (its orientation and velocities are left out of the "
-    "test); the can's bounding box is round, within 0.4 mm of upstream's 6.70 x 6.62 cm. o2 "
-    "was checked against a recording that is not committed (the can's box and the drink's "
-    "rocking differ).",
+    "test); the can's bounding box is round, within 0.4 mm of upstream's 6.70 x 6.62 cm; in 1 of "
+    "upstream's 30 o2 seeds the can slides the island's drawer 8 mm open (drawers by the KS test "
+    "alone). The right-side variant draws its 'in' objects from regions shrunk by upstream's "
+    "10 cm default footprint.",
     "FrankaPickPlace3D": "The FR3 arm is a joint position servo on both sides (the arm PD "
     "note above is the mobile manipulator's); its settled elbow is 2.1e-5 rad from upstream's "
     "(compared to 1e-4 in the test); the gripper is the primitive 2F-85 stand-in (force-limited "
     "pads; upstream: a tendon-driven four-bar linkage).",
-    "SortClutteredBlocks3D": "Only the bins variants follow upstream: the o12 cupboard and the "
-    "o20 bowls variants keep the earlier layout. Our dropped blocks bounce further and stack up "
-    "to three high (upstream's two): their positions are compared by the KS test alone.",
+    "SortClutteredBlocks3D": "Every variant has upstream's layout. Our dropped blocks bounce "
+    "further and stack up to three high (upstream's two): their positions are compared by the KS "
+    "test alone. Upstream's generated bowl collides as the convex hull of its mesh, a solid dome "
+    "that rocks and spins after the settle and on whose top a block rests; ours is a hollow "
+    "primitive bowl at rest: the bowls' tilt and velocities and the blocks' angular velocities "
+    "(upstream's pile of twenty still turns) are left out, the bowls' height and yaw compared by "
+    "the KS test alone, and one step of upstream's rocking bowls moves them up to 1.8 mm "
+    "(objects tolerance 3e-3 m). Upstream places o12's floor objects without a collision check, "
+    "so a 70 cm rod may rest across a 4 cm cube; ours redraws until nothing overlaps (height and "
+    "tilt by the KS test alone). Kept option: half_size_objects (o12's earlier 2 cm cubes and "
+    "35 cm rods).",
+    "Shelf3D": "Variants o2-o8: upstream starts some cubes partly below the floor and places the "
+    "robot without keeping it clear of them, so now and then a cube comes out of the settle "
+    "turned or knocked (ours never): the cubes are compared by the KS test alone; where "
+    "upstream's robot starts over a cube, our primitive base touches it and upstream's mesh base "
+    "does not (o2, o8: objects tolerance 0.06 m).",
 }
 #: Registered ids with no conformance fixture, and why.
-UNCOVERED: dict[str, str] = {}
+UNCOVERED: dict[str, str] = {
+    "kinder/ScoopPour3D-o100-v0": "a fixture of 100 cubes at 30 seeds is about 1 MB, five times "
+    "the fixtures' 200 KB budget; o10-o50 are checked under the same family rules",
+}
+#: Registered ids whose fixture is recorded but which do not conform yet, and how (no test
+#: hides them: the row says "differs").
+KNOWN_DIFFERENCES: dict[str, str] = {
+    "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bins-v0": "our dropped "
+    "blocks bounce further than upstream's and knock a bin in 6 of 60 seeds (upstream's never, "
+    "in 40); the pooled blocks' wy fails the KS test (0.099 > 0.089). Fixture recorded, no test",
+}
 HEADER = """# Conformance to upstream kindergarden 0.2.5
 
 Generated by `.venv/bin/python tools/conformance/table.py` from the conformance tests' own
@@ -225,6 +249,9 @@ def row_for(env_id: str, results: list[TestResult]) -> str:
     deviation = " ".join(
         d for d in (CATEGORY_DEVIATIONS.get(category, ""), DEVIATIONS.get(family, "")) if d
     )
+    if not results and env_id in KNOWN_DIFFERENCES:
+        cells = [f"differs: {KNOWN_DIFFERENCES[env_id]}", "", "", "", "", "", deviation]
+        return "| " + " | ".join([f"`{env_id}`", *map(_cell, cells)]) + " |"
     if not results:
         reason = UNCOVERED.get(env_id, "no fixture recorded")
         cells = [f"not recorded: {reason}", "", "", "", "", "", deviation]

@@ -151,6 +151,17 @@ rules, keyed by family name, beside the id rules above:
   upstream's ground sampler) and, on both sides, now and then one lands across another; which
   one and how it tilts is chance at 30 seeds, so the rods' heights, orientations and velocities
   are compared by the KS test alone.
+* Tossing3D-o2 and Dynamo3D-o12: no family rule beyond the first ids'.
+* SweepSimple3D o5-o50: the 2 cm cubes dropped from up to 10 cm are exchangeable and pooled;
+  which face one lands on (a few in 30 seeds land on an edge against another, on both sides) is
+  chance, so their height, orientation and velocities are compared by the KS test alone. The o50
+  fixtures keep 20 seeds, one full vector and 3 steps (``tools/conformance/README.md``, "Slim
+  fixtures"), to stay under 200 KB.
+* ScoopPour3D o20-o50: upstream's contacts sink deeper the heavier the pile, the bin and the
+  cubes alike (cubes 1.3 mm below ours under twenty cubes, 2.7 mm under fifty): heights are
+  compared after removing up to 3 mm of offset, and one step from upstream's state lifts the
+  cubes out of the deeper contacts (objects max 4e-3 m; measured 1.2e-3, 1.7e-3, 2.8e-3 and
+  3.3e-3 on o20-o50). Slimmed like the o50 sweeps (o50: 15 seeds, 2 steps).
 * Rearrange3D: the drink's rocking and the can's 0.4 mm box are kept as for the first id; in 1
   of upstream's 30 o2 seeds the can lands against the island's drawer and slides it 8 mm open
   (none of ours), so the drawers are compared by the KS test alone.
@@ -218,6 +229,17 @@ VARIANT_IDS = (
     "Rearrange3D-o2-put_the_boxed_drink_on_the_left_and_the_can_on_the_right_side_of_the_bowl",
     "Rearrange3D-o2-put_the_can_in_front_of_and_the_boxed_drink_behind_the_bowl",
     "Rearrange3D-o2-put_the_can_on_the_left_and_the_boxed_drink_on_the_right_side_of_the_bowl",
+    "Tossing3D-o2",
+    "Dynamo3D-o12",
+    "SweepSimple3D-o5-sweep_the_blocks_to_the_left_side_of_the_kitchen_island",
+    "SweepSimple3D-o10-sweep_the_blocks_to_the_left_side_of_the_kitchen_island",
+    "SweepSimple3D-o50-sweep_the_blocks_to_the_left_side_of_the_kitchen_island",
+    "SweepSimple3D-o50-sweep_the_blocks_to_the_right_side_of_the_kitchen_counter",
+    "SweepSimple3D-o50-sweep_the_blocks_to_the_right_side_of_the_kitchen_island",
+    "ScoopPour3D-o20",
+    "ScoopPour3D-o30",
+    "ScoopPour3D-o40",
+    "ScoopPour3D-o50",
 )
 SETTLE_ATOL = 1e-9  # float rounding after the resolution
 CONST_ATOL = 1e-6
@@ -232,7 +254,8 @@ RANGE_MISS = 1e-4
 ALPHA = 1e-3
 #: Features pooled over exchangeable objects: id -> object-name prefix.
 POOLED = {
-    "kinder/ScoopPour3D-o10-v0": "cube_",
+    "ScoopPour3D": "cube_",
+    "SweepSimple3D": "cube_",
     "kinder/SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins-v0": "cube",
     "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bowls-v0": "cube",
     "kinder/SweepIntoDrawer3D-o5-v0": "cube_",
@@ -242,7 +265,7 @@ POOLED = {
 #: dropped cubes, whose extremes come from the few cubes that tumble (12 of 200 upstream, 6 of 150
 #: ours over 40 and 30 seeds).
 POOLED_TAILS = {
-    # Family rules (module docstring, "Variants"): rare tumbles and knocks at reset.
+    # Keys without "kinder/" are family rules (module docstring, "Variants").
     "Shelf3D": {
         f"cube*.{f}"
         for f in ("x", "y", "z", "qw", "qx", "qy", "qz", "wx", "wy", "wz", "vx", "vy", "vz")
@@ -251,7 +274,10 @@ POOLED_TAILS = {
         f"cuboid_*.{f}" for f in ("z", "qw", "qx", "qy", "qz", "wx", "wy", "wz", "vx", "vy", "vz")
     },
     "Rearrange3D": {"boxed_drink_0.z", "kitchen_island_drawer_*.pos"},
-    "kinder/ScoopPour3D-o10-v0": {
+    "SweepSimple3D": {
+        f"cube_*.{f}" for f in ("z", "qw", "qx", "qy", "qz", "wx", "wy", "wz", "vx", "vy", "vz")
+    },
+    "ScoopPour3D": {
         f"cube_*.{f}" for f in ("z", "qw", "qx", "qy", "qz", "wx", "wy", "wz", "vx", "vy", "vz")
     },
     "kinder/SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins-v0": {
@@ -307,17 +333,10 @@ KEPT = {
         "can_0.bb_x",
         "can_0.bb_y",
     },
-    "kinder/ScoopPour3D-o10-v0": {"scoop_0.bb_x", "scoop_0.bb_y"},
-    "kinder/Dynamo3D-o3-v0": {
-        f"obstacle_chair_{i}.{f}"
-        for i in (1, 2, 3)
-        for f in ("bb_x", "bb_y", "bb_z", "wx", "wy", "wz")
-    },
+    "ScoopPour3D": {"scoop_0.bb_x", "scoop_0.bb_y"},
+    "Dynamo3D": {f"obstacle_chair*.{f}" for f in ("bb_x", "bb_y", "bb_z", "wx", "wy", "wz")},
     "kinder/Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl-v0": {
         f"boxed_drink_0.{f}" for f in ("qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
-    },
-    "kinder/Dynamo3D-o1-v0": {
-        *(f"obstacle_chair.{f}" for f in ("bb_x", "bb_y", "bb_z", "wx", "wy", "wz")),
     },
     "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bowls-v0": {
         *(
@@ -330,8 +349,9 @@ KEPT = {
 }
 #: Heights compared after removing the offset between the two sides' medians, up to this much
 #: (m): upstream's contacts sink deeper under load (ScoopPour3D: the yellow bin under ten 0.1 kg
-#: cubes 0.6 mm, the cubes on its floor 0.9 mm; measured on seeds 1000..1029 against upstream's).
-HEIGHT_SHIFT = {"kinder/ScoopPour3D-o10-v0": 1.5e-3}
+#: cubes 0.6 mm, the cubes on its floor 0.9 mm; measured on seeds 1000..1029 against upstream's;
+#: under fifty cubes 2.5 and 2.7 mm, on seeds 1000..1019).
+HEIGHT_SHIFT = {"kinder/ScoopPour3D-o10-v0": 1.5e-3, "ScoopPour3D": 3e-3}
 #: Per-id one-step tolerances that replace ``STEP_TOL``'s for some groups (module docstring).
 STEP_TOL_BY_ID = {
     "kinder/Shelf3D-o2-v0": {"objects": (0.02, 0.06)},
@@ -341,9 +361,9 @@ STEP_TOL_BY_ID = {
     "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bowls-v0": {
         "objects": (3e-3, 3e-3)
     },
-    "kinder/SweepSimple3D-o1-sweep_the_blocks_to_the_left_side_of_the_kitchen_island-v0": {
-        "base": (1e-3, 0.2)
-    },
+    "SweepSimple3D": {"base": (1e-3, 0.2)},
+    "kinder/ScoopPour3D-o10-v0": {},
+    "ScoopPour3D": {"objects": (4e-3, 4e-3)},
 }
 
 
@@ -425,11 +445,15 @@ def compare(ours: np.ndarray, fx: Fixture) -> list[str]:
         res = _resolution(key)
         raw = np.concatenate(cols)
         shift = float(_rule(HEIGHT_SHIFT, fx.env_id, 0.0))
+        grid = 0.0  # where the rounding grid is anchored
         if key.endswith(".z") and shift:
             offset = float(np.median(np.concatenate(pooled_up[key])) - np.median(raw))
             raw = raw + float(np.clip(offset, -shift, shift))
-        a = np.round(raw / res) * res
-        b = np.round(np.concatenate(pooled_up[key]) / res) * res
+            # Centre a rounding step on the common median, so that a pile resting within
+            # 0.5 mm of it is not split between two steps differently on the two sides.
+            grid = float(np.median(raw))
+        a = np.round((raw - grid) / res) * res + grid
+        b = np.round((np.concatenate(pooled_up[key]) - grid) / res) * res + grid
         lo, hi = min(a.min(), b.min()), max(a.max(), b.max())
         if hi - lo <= res + SETTLE_ATOL:
             continue  # both at rest at the same value, to the resolution
@@ -500,9 +524,14 @@ def test_reset_distribution_matches_upstream(
 
 
 @pytest.mark.slow
+@pytest.mark.skip_by_design(
+    reason="the variants are recorded on 30 seeds: their test is the one above"
+)
 def test_reset_distribution_matches_upstream_on_100_seeds(
     fixture: Fixture, record_property: RecordProperty
 ) -> None:
+    if fixture.env_id.removeprefix("kinder/").removesuffix("-v0") in VARIANT_IDS:
+        pytest.skip("a variant: upstream recorded 30 seeds, compared by the 30-seed test")
     env = kinder_core.make(fixture.env_id)
     ours = sample_resets(env, range(1000, 1100))
     problems = compare(ours[:, _columns(env, fixture)], fixture)
