@@ -45,7 +45,7 @@ import pytest
 
 import kinder_core
 import kinder_garden3d  # noqa: F401  (registers the ids)
-from kinder_core.conformance import check_resets, load_fixture
+from kinder_core.conformance import RecordProperty, check_resets, load_fixture
 
 DATA = Path(__file__).parent / "data" / "conformance"
 VARIANTS = ["isolated-right-arm", "human-left-leg", "wheelchair-left-arm", "bed-left-leg"]
@@ -67,7 +67,7 @@ RESET_EXCEPTIONS = {
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
-def test_reset_distribution(variant: str) -> None:
+def test_reset_distribution(variant: str, record_property: RecordProperty) -> None:
     fixture = load_fixture(DATA / f"LimbRepositioning3D-{variant}.json")
     env = kinder_core.make(f"kinder/LimbRepositioning3D-{variant}-v0")
     try:
@@ -76,6 +76,11 @@ def test_reset_distribution(variant: str) -> None:
         env.close()
     allowed = RESET_EXCEPTIONS[variant]
     failed = {f.name for f in report.failures}
+    record_property("conformance_figures", report.summary())
+    if allowed:
+        record_property(
+            "conformance_tolerance", f"kept differences (module docstring): {sorted(allowed)}"
+        )
     assert failed <= allowed, [f for f in report.failures if f.name not in allowed]
     limb = [f for f in report.features if f.name.startswith("limb.joint_") and "vel" not in f.name]
     assert len(limb) == 6
@@ -86,7 +91,9 @@ def test_reset_distribution(variant: str) -> None:
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
-def test_one_step_transitions_from_upstream_states(variant: str) -> None:
+def test_one_step_transitions_from_upstream_states(
+    variant: str, record_property: RecordProperty
+) -> None:
     fixture = load_fixture(DATA / f"LimbRepositioning3D-{variant}.json")
     names = fixture.feature_names
     vel = np.array(["_vel_" in n for n in names])
@@ -97,6 +104,7 @@ def test_one_step_transitions_from_upstream_states(variant: str) -> None:
     pos = ~vel & ~exact
     env = kinder_core.make(f"kinder/LimbRepositioning3D-{variant}-v0")
     steps = 0
+    worst = np.zeros(2)
     try:
         for traj in fixture.trajectories:
             prev = traj.init_state
@@ -108,8 +116,19 @@ def test_one_step_transitions_from_upstream_states(variant: str) -> None:
                 assert err[pos].max() < pos_atol, (traj.name, k, names[int(np.argmax(err * pos))])
                 assert err[vel].max() < vel_atol, (traj.name, k, names[int(np.argmax(err * vel))])
                 assert reward == traj.rewards[k] and terminated == bool(traj.terminated[k])
+                worst = np.maximum(worst, [err[pos].max(), err[vel].max()])
                 prev = traj.states[k]
                 steps += 1
     finally:
         env.close()
+    record_property(
+        "conformance_figures",
+        f"{steps} one-step replays; positions max {worst[0]:.2g} rad, velocities max "
+        f"{worst[1]:.2g} rad/s",
+    )
+    record_property(
+        "conformance_tolerance",
+        f"one step from upstream's state: joint positions {pos_atol:g} rad, velocities "
+        f"{vel_atol:g} rad/s; base pose and goal exactly",
+    )
     assert steps == 40
