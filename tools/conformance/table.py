@@ -56,6 +56,9 @@ ASPECTS: dict[str, tuple[str, ...]] = {
     "seed for seed": ("seeded",),
     "transitions": ("transition", "first_steps", "one_step"),
 }
+#: ``--family`` selects tests by ``pytest -k``: a family whose tests are not parametrized by its
+#: ids' names is selected by its test module's name.
+FAMILY_KEYWORDS = {"LimbRepositioning3D": "limb3d"}
 #: What a missing seed-for-seed comparison means, per category.
 NO_SEED_FOR_SEED: dict[str, str] = {
     "Dynamic3D": "not compared: the scene settles in MuJoCo and our draws are not upstream's "
@@ -138,6 +141,14 @@ UNCOVERED: dict[str, str] = {
 #: Registered ids whose fixture is recorded but which do not conform yet, and how (no test
 #: hides them: the row says "differs").
 KNOWN_DIFFERENCES: dict[str, str] = {
+    **{
+        f"kinder/LimbRepositioning3D-wheelchair-{side}-leg-v0": "our seated hip draws are about "
+        "0.05 rad more flexed than upstream's and the abduction is shifted as much (the rejection "
+        "of draws that press the leg into the chair and body depends on the shapes); one-step "
+        "transitions within the family's bounds. Fixture recorded; not in the test "
+        "(test_conformance_limb3d.py's docstring)"
+        for side in ("left", "right")
+    },
     "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bins-v0": "our dropped "
     "blocks bounce further than upstream's and knock a bin in 6 of 60 seeds (upstream's never, "
     "in 40); the pooled blocks' wy fails the KS test (0.099 > 0.089). Fixture recorded, no test",
@@ -312,6 +323,7 @@ def main(argv: list[str] | None = None) -> None:
     categories = {FAMILY_SOURCES[family_of(i)].category for i in todo}
     files = [f for c in CATEGORIES if c in categories for f in TEST_FILES[c]]
     keyword = args.family if args.family and args.family not in CATEGORIES else None
+    keyword = FAMILY_KEYWORDS.get(keyword or "", keyword)
     start = time.monotonic()
     results: dict[str, list[TestResult]] = {}
     suite: list[str] = []

@@ -34,6 +34,17 @@ The family rule:
   wrist, ``limb.joint_5``); bed-left-leg, positions 5.0e-3 rad and velocities 1.20 rad/s (both
   robot joint 3), hence its wider bounds. The light distal links and the arm near a singular
   configuration carry the largest differences.
+
+The scenes' other sides and limbs (``SLOW_VARIANTS``, recorded with ``--seeds 40 --full 5 --random
+1 --steps 20 --no-scripts``) follow the same rule: only the arm joints' branch differs at reset,
+and one step stays within the default bounds (measured: positions 2.2e-3 to 3.3e-3 rad on the
+arms, 2.9e-4 to 8.2e-4 on the legs; velocities 0.52 to 0.79 rad/s on the arms, 0.069 to 0.20 on
+the legs). The wheelchair legs are recorded (their fixtures are committed) but do not conform
+yet: our seated hip draws are about 0.05 rad more flexed than upstream's (``limb.joint_1``
+-1.39..-1.29 against -1.33..-1.24 rad on the left leg) and the abduction (``limb.joint_2``) is
+shifted as much, the rejection of draws that press the leg into the chair and body depending on
+the shapes; their one-step transitions are within the default bounds (3.7e-4 and 4.5e-4 rad,
+0.09 and 0.11 rad/s). ``docs/conformance.md`` lists them as differing.
 """
 
 from __future__ import annotations
@@ -49,24 +60,35 @@ from kinder_core.conformance import RecordProperty, check_resets, load_fixture
 
 DATA = Path(__file__).parent / "data" / "conformance"
 VARIANTS = ["isolated-right-arm", "human-left-leg", "wheelchair-left-arm", "bed-left-leg"]
-#: One-step bounds per variant: (positions in rad, velocities in rad/s).
-ATOL = {
-    "isolated-right-arm": (5e-3, 1.0),
-    "human-left-leg": (5e-3, 1.0),
-    "wheelchair-left-arm": (5e-3, 1.0),
-    "bed-left-leg": (7e-3, 1.5),
-}
+#: The scenes' other sides and limbs (``--seeds 40 --full 5 --random 1 --steps 20``), slow. The
+#: wheelchair legs are not among them: their hip joints differ (module docstring).
+SLOW_VARIANTS = [
+    "isolated-left-arm",
+    "isolated-left-leg",
+    "isolated-right-leg",
+    "human-left-arm",
+    "human-right-arm",
+    "human-right-leg",
+    "wheelchair-right-arm",
+    "bed-left-arm",
+    "bed-right-arm",
+    "bed-right-leg",
+]
+ALL_VARIANTS = [*VARIANTS, *(pytest.param(v, marks=pytest.mark.slow) for v in SLOW_VARIANTS)]
+#: One-step bounds: (positions in rad, velocities in rad/s); bed-left-leg's are wider.
+DEFAULT_ATOL = (5e-3, 1.0)
+ATOL = {"bed-left-leg": (7e-3, 1.5)}
+#: The "exact" features (base pose, goal, fixture) to float rounding.
+EXACT_ATOL = 1e-12
 IK_BRANCH = {f"robot.joint_{i}" for i in range(1, 8)}
 #: Features whose reset distribution differs, per variant (see the module docstring).
 RESET_EXCEPTIONS = {
-    "isolated-right-arm": IK_BRANCH,
-    "human-left-leg": IK_BRANCH,
     "wheelchair-left-arm": set(),
     "bed-left-leg": IK_BRANCH | {"limb.joint_2"},
 }
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
+@pytest.mark.parametrize("variant", ALL_VARIANTS)
 def test_reset_distribution(variant: str, record_property: RecordProperty) -> None:
     fixture = load_fixture(DATA / f"LimbRepositioning3D-{variant}.json")
     env = kinder_core.make(f"kinder/LimbRepositioning3D-{variant}-v0")
@@ -74,7 +96,7 @@ def test_reset_distribution(variant: str, record_property: RecordProperty) -> No
         report = check_resets(env, fixture)
     finally:
         env.close()
-    allowed = RESET_EXCEPTIONS[variant]
+    allowed = RESET_EXCEPTIONS.get(variant, IK_BRANCH)
     failed = {f.name for f in report.failures}
     record_property("conformance_figures", report.summary())
     if allowed:
@@ -90,7 +112,7 @@ def test_reset_distribution(variant: str, record_property: RecordProperty) -> No
     assert all(f.ok for f in fixture)
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
+@pytest.mark.parametrize("variant", ALL_VARIANTS)
 def test_one_step_transitions_from_upstream_states(
     variant: str, record_property: RecordProperty
 ) -> None:
@@ -100,7 +122,7 @@ def test_one_step_transitions_from_upstream_states(
     exact = np.array(
         [n.startswith(("robot.pos_base", "fixture.")) or ".goal_joint_" in n for n in names]
     )
-    pos_atol, vel_atol = ATOL[variant]
+    pos_atol, vel_atol = ATOL.get(variant, DEFAULT_ATOL)
     pos = ~vel & ~exact
     env = kinder_core.make(f"kinder/LimbRepositioning3D-{variant}-v0")
     steps = 0
@@ -112,7 +134,7 @@ def test_one_step_transitions_from_upstream_states(
                 env.reset(options={"init_state": prev.copy()})
                 obs, reward, terminated, _, _ = env.step(action.copy())
                 err = np.abs(np.asarray(obs) - traj.states[k])
-                assert err[exact].max() == 0.0, (traj.name, k)
+                assert err[exact].max() <= EXACT_ATOL, (traj.name, k)
                 assert err[pos].max() < pos_atol, (traj.name, k, names[int(np.argmax(err * pos))])
                 assert err[vel].max() < vel_atol, (traj.name, k, names[int(np.argmax(err * vel))])
                 assert reward == traj.rewards[k] and terminated == bool(traj.terminated[k])
@@ -129,6 +151,6 @@ def test_one_step_transitions_from_upstream_states(
     record_property(
         "conformance_tolerance",
         f"one step from upstream's state: joint positions {pos_atol:g} rad, velocities "
-        f"{vel_atol:g} rad/s; base pose and goal exactly",
+        f"{vel_atol:g} rad/s; base pose, goal and fixture to {EXACT_ATOL:g}",
     )
-    assert steps == 40
+    assert steps == sum(len(t.actions) for t in fixture.trajectories) >= 20
