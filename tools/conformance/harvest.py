@@ -7,7 +7,7 @@ deviations), never a second comparison that could disagree with them. One line p
     {"nodeid": ..., "test": "test_transitions_match_upstream", "param": "StickButton2D-b1",
      "outcome": "passed" | "failed" | "xfailed" | "skipped" | "error", "slow": false,
      "message": ...,
-     "properties": {"tolerance": ..., "figures": ..., "divergence": ...}}
+     "properties": {"tolerance": ..., "figures": ..., "divergence": ..., "kept": ...}}
 
 ``properties`` are what the test recorded with pytest's ``record_property`` (the measured
 figures and the tolerance it applied). The output path is ``$KINDER_CONFORMANCE_RESULTS``.

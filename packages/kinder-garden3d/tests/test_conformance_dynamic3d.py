@@ -498,8 +498,12 @@ def test_feature_names_are_upstreams(fixture: Fixture) -> None:
 def _record_distribution(
     record_property: RecordProperty, fx: Fixture, problems: list[str], num_ours: int
 ) -> None:
-    kept = sum(_listed(n, _rule(KEPT, fx.env_id, ())) for n in fx.feature_names)
+    left_out = [n for n in fx.feature_names if _listed(n, _rule(KEPT, fx.env_id, ()))]
+    kept = len(left_out)
     compared = len(fx.feature_names) - kept
+    if left_out:
+        shown = ", ".join(left_out[:4]) + (", ..." if kept > 4 else "")
+        record_property("conformance_kept", f"{kept} features left out ({shown}; module docstring)")
     record_property(
         "conformance_figures",
         f"{compared - len(problems)}/{compared} features"
@@ -598,8 +602,14 @@ def record_step_errors(
     record_property: RecordProperty, errors: dict[str, np.ndarray], env_id: str
 ) -> None:
     """Record the one-step errors (median / max per group) and the tolerances they met."""
-    tol = {**STEP_TOL, **_rule(STEP_TOL_BY_ID, env_id, {})}
+    wider = _rule(STEP_TOL_BY_ID, env_id, {})
+    tol = {**STEP_TOL, **wider}
     steps = len(next(iter(errors.values())))
+    if wider:
+        record_property(
+            "conformance_kept",
+            "wider one-step tolerance for " + ", ".join(sorted(wider)) + " (module docstring)",
+        )
     record_property(
         "conformance_figures",
         f"{steps} one-step replays; "

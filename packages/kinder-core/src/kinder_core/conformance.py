@@ -32,8 +32,10 @@ from kinder_core.state import FloatArray
 
 #: The type of pytest's ``record_property`` fixture. Conformance tests record what they measured
 #: and the tolerance they applied under the names ``conformance_figures``,
-#: ``conformance_tolerance`` and ``conformance_divergence``; ``tools/conformance/table.py``
-#: shows them in ``docs/conformance.md`` beside each test's verdict.
+#: ``conformance_tolerance``, ``conformance_divergence`` (where a replay stopped, and why) and
+#: ``conformance_kept`` (a difference the test leaves out or allows for);
+#: ``tools/conformance/table.py`` shows them in ``docs/conformance.md`` beside each test's
+#: verdict.
 RecordProperty = Callable[[str, object], None]
 
 FORMAT_VERSION = 1
