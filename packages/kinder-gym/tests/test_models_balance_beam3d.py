@@ -8,6 +8,8 @@ import math
 import numpy as np
 import pytest
 
+from kinder_gym.testing import abstract_atoms
+
 pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
@@ -26,10 +28,6 @@ def env():
     e.close()
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
 def _put_on_beam(env, state, name: str, u: float):
     """``state`` with block ``name`` resting ``u`` metres along the beam from its centre."""
     frame = env.regions.transform(state, "beam_goal_region")
@@ -45,19 +43,19 @@ def test_predicates_on_edited_states(env) -> None:
     model = create_model(env)
     state = env.reset(seed=0)[0]
     start = {"(HandEmpty robot)", "(Balanced seesaw_1)"} | {f"(OnGround {b})" for b in BLOCKS}
-    assert atoms(model, state) == start
+    assert abstract_atoms(model, state) == start
     assert {str(a) for a in model.goal(state)} == {
         "(HandEmpty robot)",
         "(Balanced seesaw_1)",
     } | {f"(OnBeam {b} seesaw_1)" for b in BLOCKS}
     on_beam = _put_on_beam(env, state, "large_block", 0.05)
-    assert atoms(model, on_beam) == start - {"(OnGround large_block)"} | {
+    assert abstract_atoms(model, on_beam) == start - {"(OnGround large_block)"} | {
         "(OnBeam large_block seesaw_1)"
     }
     # The beam tilted by 6° (over the goal's 5°): Balanced goes away.
     tilted = state.copy()
     tilted.set(env.objects["seesaw_1"], "hinge_pos", math.radians(6.0))
-    assert atoms(model, tilted) == start - {"(Balanced seesaw_1)"}
+    assert abstract_atoms(model, tilted) == start - {"(Balanced seesaw_1)"}
     # A closed hand whose pinch point is at a lifted block holds it.
     robot = env.objects["robot"]
     held = state.copy()
@@ -65,7 +63,7 @@ def test_predicates_on_edited_states(env) -> None:
     pinch = pinch_position(base_pose(held, robot), arm_joints(held, robot))
     for feature, value in zip(("x", "y", "z"), pinch, strict=True):
         held.set(env.objects["small_block_1"], feature, value)
-    assert atoms(model, held) == {
+    assert abstract_atoms(model, held) == {
         "(Holding robot small_block_1)",
         "(Balanced seesaw_1)",
         "(OnGround large_block)",

@@ -9,6 +9,8 @@ import math
 import numpy as np
 import pytest
 
+from kinder_gym.testing import abstract_atoms
+
 pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
@@ -30,10 +32,6 @@ def env():
     e.close()
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
 def _set_pose(state, obj, position, quat=None) -> None:
     for feature, value in zip(("x", "y", "z"), position, strict=True):
         state.set(obj, feature, float(value))
@@ -46,7 +44,7 @@ def test_predicates_on_hand_built_states(env) -> None:
     model = create_model(env)
     state = env.reset(seed=0)[0]
     on_ground = {"(OnGround cuboid_0)", "(OnGround cuboid_1)"}
-    assert atoms(model, state) == {"(HandEmpty robot)"} | on_ground
+    assert abstract_atoms(model, state) == {"(HandEmpty robot)"} | on_ground
     assert {str(a) for a in model.goal(state)} == {
         "(HandEmpty robot)",
         "(OnShelf cuboid_0 cupboard_1)",
@@ -57,7 +55,7 @@ def test_predicates_on_hand_built_states(env) -> None:
     frame = env.regions.transform(state, "cupboard_1_shelf_0_goal_region")
     on_shelf = state.copy()
     _set_pose(on_shelf, env.objects["cuboid_0"], frame[:3, :3] @ [0.0, 0.1, 0.015] + frame[:3, 3])
-    assert atoms(model, on_shelf) == {
+    assert abstract_atoms(model, on_shelf) == {
         "(HandEmpty robot)",
         "(OnShelf cuboid_0 cupboard_1)",
         "(OnGround cuboid_1)",
@@ -66,7 +64,7 @@ def test_predicates_on_hand_built_states(env) -> None:
     # The same rod beside the cupboard at that height is on no shelf, and not on the ground.
     beside = on_shelf.copy()
     _set_pose(beside, env.objects["cuboid_0"], frame[:3, 3] + np.array([-0.4, 0.0, 0.1]))
-    assert atoms(model, beside) == {"(HandEmpty robot)", "(OnGround cuboid_1)"}
+    assert abstract_atoms(model, beside) == {"(HandEmpty robot)", "(OnGround cuboid_1)"}
     # A closed hand whose pinch point is on the rod's axis near one end (lifted) holds it.
     robot = env.objects["robot"]
     held = state.copy()
@@ -77,11 +75,11 @@ def test_predicates_on_hand_built_states(env) -> None:
     yaw = float(base[2]) - math.pi / 2  # the rod's length (its local y) along the heading
     quat = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
     _set_pose(held, env.objects["cuboid_1"], pinch + 0.055 * heading, quat)
-    assert atoms(model, held) == {"(Holding robot cuboid_1)", "(OnGround cuboid_0)"}
+    assert abstract_atoms(model, held) == {"(Holding robot cuboid_1)", "(OnGround cuboid_0)"}
     # Closed on nothing: neither HandEmpty nor Holding.
     empty_fist = state.copy()
     empty_fist.set(robot, "pos_gripper", 0.99)
-    assert atoms(model, empty_fist) == on_ground
+    assert abstract_atoms(model, empty_fist) == on_ground
 
 
 def test_rod_geometry_helpers(env) -> None:

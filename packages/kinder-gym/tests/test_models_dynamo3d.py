@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from kinder_gym.testing import abstract_atoms
+
 pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
@@ -20,24 +22,20 @@ def env():
     e.close()
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
 def test_predicates_on_hand_built_states(env) -> None:
     model = create_model(env)
     state = env.reset(seed=1000)[0]
-    assert atoms(model, state) == {"(HandEmpty robot)"}
+    assert abstract_atoms(model, state) == {"(HandEmpty robot)"}
     assert {str(a) for a in model.goal(state)} == {"(AtGoal robot)"}
     robot = env.objects["robot"]
     box = env.task.regions["ground_goal_region"].boxes[0]  # o3: (3.45..4.2)^2 as upstream's
     there = state.copy()
     there.set(robot, "pos_base_x", float(box[3]) - 0.05)
     there.set(robot, "pos_base_y", float(box[1]) + 0.05)
-    assert atoms(model, there) == {"(HandEmpty robot)", "(AtGoal robot)"}
+    assert abstract_atoms(model, there) == {"(HandEmpty robot)", "(AtGoal robot)"}
     there.set(robot, "pos_base_y", float(box[1]) - 0.05)  # just outside the goal area
     there.set(robot, "pos_gripper", 0.9)
-    assert atoms(model, there) == set()
+    assert abstract_atoms(model, there) == set()
     assert [o.name for o in model.ground_operators(state)] == ["MoveToGoal(robot)"]
 
 
@@ -50,7 +48,7 @@ def test_move_to_goal_pushes_the_chair_and_reaches_the_goal(env) -> None:
     op = model.ground_operators(state)[0]
     out = execute_skill(model.skill(op).controller, state, [0.5, 0.5, 0.5], env.transition, 200)
     assert out.terminated and env.goal_reached(out.states[-1])
-    assert "(AtGoal robot)" in atoms(model, out.states[-1])
+    assert "(AtGoal robot)" in abstract_atoms(model, out.states[-1])
     end = np.array([out.states[-1].get(chair, "x"), out.states[-1].get(chair, "y")])
     assert np.linalg.norm(end - start) > 0.1  # the chair was shoved out of the way
     high = env.action_space.high

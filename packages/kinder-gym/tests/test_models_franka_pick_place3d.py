@@ -20,7 +20,7 @@ from kinder_gym.models.dynamic3d.franka_pick_place3d import (
     solve_ik,
 )
 from kinder_gym.skills import SkillFailure, execute_skill
-from kinder_gym.testing import check_planning_model
+from kinder_gym.testing import abstract_atoms, check_planning_model, move_object
 
 ENV_ID = "kinder/FrankaPickPlace3D-o1-v0"
 
@@ -32,39 +32,30 @@ def env():
     e.close()
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
-def _move(state, obj, xyz) -> None:
-    for feature, value in zip(("x", "y", "z"), xyz, strict=True):
-        state.set(obj, feature, float(value))
-
-
 def test_predicates_on_hand_built_states(env) -> None:
     model = create_model(env)
     state = env.reset(seed=1000)[0]
     cube, robot, desk = env.objects["cube1"], env.objects["robot"], env.objects["desk_1"]
-    assert atoms(model, state) == {"(HandEmpty robot)", "(Loose cube1)"}
+    assert abstract_atoms(model, state) == {"(HandEmpty robot)", "(Loose cube1)"}
     assert {str(a) for a in model.goal(state)} == {"(HandEmpty robot)", "(Placed cube1)"}
     # On the desk in the goal region (desk frame x -0.05-0.15, y 0.12-0.27): Placed.
     z = state.get(cube, "z")
     placed = state.copy()
-    _move(placed, cube, (state.get(desk, "x") + 0.05, 0.2, z))
-    assert atoms(model, placed) == {"(HandEmpty robot)", "(Placed cube1)"}
+    move_object(placed, cube, (state.get(desk, "x") + 0.05, 0.2, z))
+    assert abstract_atoms(model, placed) == {"(HandEmpty robot)", "(Placed cube1)"}
     assert env.goal(placed)
     # A closed hand with the cube lifted at its pinch point holds it; HandEmpty goes away.
     ctx = model.skills[0].context
     held = state.copy()
     held.set(robot, "pos_gripper", 0.4)
     pinch = pinch_frame(ctx, held)[:3, 3]
-    _move(held, cube, pinch - np.array([0.0, 0.0, 0.01]))
+    move_object(held, cube, pinch - np.array([0.0, 0.0, 0.01]))
     assert pinch[2] > z + 0.1  # the home pose holds the hand well above the desk
-    assert atoms(model, held) == {"(Holding robot cube1)"}
+    assert abstract_atoms(model, held) == {"(Holding robot cube1)"}
     # Closed on nothing: neither HandEmpty nor Holding.
     fist = state.copy()
     fist.set(robot, "pos_gripper", 0.99)
-    assert atoms(model, fist) == {"(Loose cube1)"}
+    assert abstract_atoms(model, fist) == {"(Loose cube1)"}
 
 
 def test_grounding_and_pddl(env) -> None:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from kinder_gym.testing import abstract_atoms
+
 pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
@@ -20,18 +22,14 @@ def env():
     e.close()
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
 def test_predicates_and_operator(env) -> None:
     model = create_model(env)
     state = env.reset(seed=1000)[0]
-    assert atoms(model, state) == {"(NotAtGoal robot limb)"}
+    assert abstract_atoms(model, state) == {"(NotAtGoal robot limb)"}
     assert {str(a) for a in model.goal(state)} == {"(AtGoal robot limb)"}
     there = state.copy()
     there[env.limb][:6] = there[env.limb][12:18]
-    assert atoms(model, there) == {"(AtGoal robot limb)"}
+    assert abstract_atoms(model, there) == {"(AtGoal robot limb)"}
     assert [o.name for o in model.ground_operators(state)] == ["RepositionLimb(robot, limb)"]
 
 

@@ -11,7 +11,7 @@ from kinder_core import make_object_centric
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position
 from kinder_gym.skills import SkillFailure, execute_skill
-from kinder_gym.testing import check_planning_model
+from kinder_gym.testing import abstract_atoms, check_planning_model, move_object
 
 ENV_ID = "kinder/PickPlace3D-o1-v0"
 
@@ -23,39 +23,30 @@ def env():
     e.close()
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
-def _move(state, obj, xyz) -> None:
-    for feature, value in zip(("x", "y", "z"), xyz, strict=True):
-        state.set(obj, feature, float(value))
-
-
 def test_predicates_on_hand_built_states(env) -> None:
     model = create_model(env)
     state = env.reset(seed=1000)[0]
     cube, robot = env.objects["cube1"], env.objects["robot"]
-    assert atoms(model, state) == {"(HandEmpty robot)", "(Loose cube1)"}
+    assert abstract_atoms(model, state) == {"(HandEmpty robot)", "(Loose cube1)"}
     assert {str(a) for a in model.goal(state)} == {"(HandEmpty robot)", "(Placed cube1)"}
     # Resting on the floor in the goal region (x 0.95-1.25, y 0.35-0.65): Placed.
     placed = state.copy()
-    _move(placed, cube, (1.1, 0.5, 0.02))
-    assert atoms(model, placed) == {"(HandEmpty robot)", "(Placed cube1)"}
+    move_object(placed, cube, (1.1, 0.5, 0.02))
+    assert abstract_atoms(model, placed) == {"(HandEmpty robot)", "(Placed cube1)"}
     assert env.goal(placed)
     # Just outside the region: still Loose.
-    _move(placed, cube, (1.3, 0.5, 0.02))
-    assert atoms(model, placed) == {"(HandEmpty robot)", "(Loose cube1)"}
+    move_object(placed, cube, (1.3, 0.5, 0.02))
+    assert abstract_atoms(model, placed) == {"(HandEmpty robot)", "(Loose cube1)"}
     # A closed hand with the cube lifted at its pinch point holds it; HandEmpty goes away.
     held = state.copy()
     held.set(robot, "pos_gripper", 0.8)
     pinch = pinch_position(base_pose(held, robot), arm_joints(held, robot))
-    _move(held, cube, pinch - np.array([0.0, 0.0, 0.01]))
-    assert atoms(model, held) == {"(Holding robot cube1)"}
+    move_object(held, cube, pinch - np.array([0.0, 0.0, 0.01]))
+    assert abstract_atoms(model, held) == {"(Holding robot cube1)"}
     # Closed on nothing: neither HandEmpty nor Holding.
     fist = state.copy()
     fist.set(robot, "pos_gripper", 0.99)
-    assert atoms(model, fist) == {"(Loose cube1)"}
+    assert abstract_atoms(model, fist) == {"(Loose cube1)"}
 
 
 def test_grounding_and_pddl(env) -> None:

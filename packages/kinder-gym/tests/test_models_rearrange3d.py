@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from kinder_gym.testing import abstract_atoms, move_object
+
 pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
@@ -26,20 +28,15 @@ def env2():
     e.close()
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
-def _move(state, obj, xyz) -> None:
-    for feature, value in zip(("x", "y", "z"), xyz, strict=True):
-        state.set(obj, feature, float(value))
-
-
 def test_predicates_on_hand_built_states(env2) -> None:
     model = create_model(env2)
     state = env2.reset(seed=1000)[0]
     drink, can, bowl = (env2.objects[n] for n in ("boxed_drink_0", "can_0", "bowl_0"))
-    assert atoms(model, state) == {"(HandEmpty robot)", "(Loose boxed_drink_0)", "(Loose can_0)"}
+    assert abstract_atoms(model, state) == {
+        "(HandEmpty robot)",
+        "(Loose boxed_drink_0)",
+        "(Loose can_0)",
+    }
     assert {str(a) for a in model.goal(state)} == {
         "(HandEmpty robot)",
         "(Placed boxed_drink_0)",
@@ -50,9 +47,9 @@ def test_predicates_on_hand_built_states(env2) -> None:
     b = np.array([state.get(bowl, f) for f in ("x", "y")])
     can_z, drink_z = state.get(can, "z"), state.get(drink, "z")
     placed = state.copy()
-    _move(placed, can, (b[0], b[1] - 0.09, can_z))
-    _move(placed, drink, (b[0], b[1] + 0.09, drink_z))
-    assert atoms(model, placed) == {
+    move_object(placed, can, (b[0], b[1] - 0.09, can_z))
+    move_object(placed, drink, (b[0], b[1] + 0.09, drink_z))
+    assert abstract_atoms(model, placed) == {
         "(HandEmpty robot)",
         "(Placed boxed_drink_0)",
         "(Placed can_0)",
@@ -60,20 +57,20 @@ def test_predicates_on_hand_built_states(env2) -> None:
     assert env2.goal(placed)
     # Swapped sides: neither is in its region.
     swapped = state.copy()
-    _move(swapped, can, (b[0], b[1] + 0.09, can_z))
-    _move(swapped, drink, (b[0], b[1] - 0.09, drink_z))
-    assert atoms(model, swapped) == atoms(model, state)
+    move_object(swapped, can, (b[0], b[1] + 0.09, can_z))
+    move_object(swapped, drink, (b[0], b[1] - 0.09, drink_z))
+    assert abstract_atoms(model, swapped) == abstract_atoms(model, state)
     # A closed hand with the can lifted at its pinch point holds it; HandEmpty goes away.
     robot = env2.objects["robot"]
     held = state.copy()
     held.set(robot, "pos_gripper", 0.7)
     pinch = pinch_position(base_pose(held, robot), arm_joints(held, robot))
-    _move(held, can, pinch - np.array([0.0, 0.0, 0.03]))
-    assert atoms(model, held) == {"(Holding robot can_0)", "(Loose boxed_drink_0)"}
+    move_object(held, can, pinch - np.array([0.0, 0.0, 0.03]))
+    assert abstract_atoms(model, held) == {"(Holding robot can_0)", "(Loose boxed_drink_0)"}
     # Closed on nothing: neither HandEmpty nor Holding.
     fist = state.copy()
     fist.set(robot, "pos_gripper", 0.99)
-    assert atoms(model, fist) == {"(Loose boxed_drink_0)", "(Loose can_0)"}
+    assert abstract_atoms(model, fist) == {"(Loose boxed_drink_0)", "(Loose can_0)"}
 
 
 def test_grounding_and_place_sampler(env2) -> None:

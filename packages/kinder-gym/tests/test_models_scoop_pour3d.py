@@ -22,6 +22,7 @@ from kinder_gym.models.dynamic3d.scoop_pour3d import (
 )
 from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position
 from kinder_gym.skills import SkillFailure, execute_skill
+from kinder_gym.testing import abstract_atoms as model_atoms
 
 
 @pytest.fixture(scope="module")
@@ -94,23 +95,19 @@ def test_grasp_scoop_reaches_holding(env, seed: int) -> None:
         execute_skill(controller, final, params, env.transition, 10)
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
 def test_model_predicates_on_edited_states(env) -> None:
     model = create_model(env)
     state = env.reset(seed=0)[0]
     cubes = [f"cube_{i}" for i in range(10)]
     start = {"(HandEmpty robot)"} | {f"(InSource {c})" for c in cubes}
-    assert atoms(model, state) == start
+    assert model_atoms(model, state) == start
     assert {str(a) for a in model.goal(state)} == {f"(InTarget {c})" for c in cubes}
     frame = env.regions.transform(state, "target_bin_region")
     moved = state.copy()
     on_floor = frame[:3, :3] @ np.array([0.0, 0.0, 0.025]) + frame[:3, 3]
     for feature, value in zip(("x", "y", "z"), on_floor, strict=True):
         moved.set(env.objects["cube_3"], feature, value)
-    assert atoms(model, moved) == start - {"(InSource cube_3)"} | {"(InTarget cube_3)"}
+    assert model_atoms(model, moved) == start - {"(InSource cube_3)"} | {"(InTarget cube_3)"}
 
 
 def test_pick_and_place_reach_their_predictions(env) -> None:

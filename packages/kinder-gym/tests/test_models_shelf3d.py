@@ -7,6 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from kinder_gym.testing import abstract_atoms
+
 pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
@@ -30,14 +32,14 @@ def env():
     e.close()
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
 def test_predicates_on_hand_built_states(env) -> None:
     model = create_model(env)
     state = env.reset(seed=0)[0]
-    assert atoms(model, state) == {"(HandEmpty robot)", "(OnGround cube1)", "(OnGround cube2)"}
+    assert abstract_atoms(model, state) == {
+        "(HandEmpty robot)",
+        "(OnGround cube1)",
+        "(OnGround cube2)",
+    }
     assert {str(a) for a in model.goal(state)} == {
         "(HandEmpty robot)",
         "(OnShelf cube1 cupboard_1)",
@@ -49,7 +51,7 @@ def test_predicates_on_hand_built_states(env) -> None:
     x, y, z = frame[:3, :3] @ np.array([0.05, 0.0, 0.01]) + frame[:3, 3]
     for feature, value in (("x", x), ("y", y), ("z", z)):
         on_shelf.set(env.objects["cube1"], feature, value)
-    assert atoms(model, on_shelf) == {
+    assert abstract_atoms(model, on_shelf) == {
         "(HandEmpty robot)",
         "(OnShelf cube1 cupboard_1)",
         "(OnGround cube2)",
@@ -61,11 +63,11 @@ def test_predicates_on_hand_built_states(env) -> None:
     pinch = pinch_position(base_pose(held, robot), arm_joints(held, robot))
     for feature, value in zip(("x", "y", "z"), pinch - np.array([0.0, 0.0, 0.02]), strict=True):
         held.set(env.objects["cube2"], feature, value)
-    assert atoms(model, held) == {"(Holding robot cube2)", "(OnGround cube1)"}
+    assert abstract_atoms(model, held) == {"(Holding robot cube2)", "(OnGround cube1)"}
     # Closed on nothing: neither HandEmpty nor Holding.
     empty_fist = state.copy()
     empty_fist.set(robot, "pos_gripper", 0.99)
-    assert atoms(model, empty_fist) == {"(OnGround cube1)", "(OnGround cube2)"}
+    assert abstract_atoms(model, empty_fist) == {"(OnGround cube1)", "(OnGround cube2)"}
 
 
 def test_grounding_and_pddl(env) -> None:
@@ -106,7 +108,7 @@ def test_pick_and_place_reach_their_predictions(env) -> None:
                 break
         else:
             raise AssertionError(f"{name} never reached its prediction")
-    assert "(OnShelf cube1 cupboard_1)" in atoms(model, state)
+    assert "(OnShelf cube1 cupboard_1)" in abstract_atoms(model, state)
     assert env.goal_atoms(state)["on(cube1, cupboard_1_goal_region)"]
 
 

@@ -7,6 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from kinder_gym.testing import abstract_atoms, move_object
+
 pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
@@ -27,20 +29,11 @@ def env():
     e.close()
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
-def _move(state, obj, xyz) -> None:
-    for feature, value in zip(("x", "y", "z"), xyz, strict=True):
-        state.set(obj, feature, float(value))
-
-
 def test_predicates_on_hand_built_states(env) -> None:
     model = create_model(env)
     state = env.reset(seed=1000)[0]
     loose = {f"(Loose cube{i})" for i in range(1, 5)}
-    assert atoms(model, state) == {"(HandEmpty robot)"} | loose
+    assert abstract_atoms(model, state) == {"(HandEmpty robot)"} | loose
     assert {str(a) for a in model.goal(state)} == {"(HandEmpty robot)"} | {
         f"(Sorted cube{i})" for i in range(1, 5)
     }
@@ -49,20 +42,20 @@ def test_predicates_on_hand_built_states(env) -> None:
     # cube1 (red, by the colour cycle) on the red bin's floor: Sorted; in the green bin: not.
     # (The 2 cm cube rests 2 cm above the bin's frame, its bottom face on the 0.4 m table.)
     sorted_ = state.copy()
-    _move(sorted_, cube1, (state.get(red, "x"), state.get(red, "y"), 0.42))
-    assert atoms(model, sorted_) == {"(HandEmpty robot)", "(Sorted cube1)"} | (
+    move_object(sorted_, cube1, (state.get(red, "x"), state.get(red, "y"), 0.42))
+    assert abstract_atoms(model, sorted_) == {"(HandEmpty robot)", "(Sorted cube1)"} | (
         loose - {"(Loose cube1)"}
     )
     wrong = state.copy()
-    _move(wrong, cube1, (state.get(green, "x"), state.get(green, "y"), 0.42))
-    assert atoms(model, wrong) == atoms(model, state)
+    move_object(wrong, cube1, (state.get(green, "x"), state.get(green, "y"), 0.42))
+    assert abstract_atoms(model, wrong) == abstract_atoms(model, state)
     # A closed hand with cube2 lifted at the pinch point holds it.
     robot = env.objects["robot"]
     held = state.copy()
     held.set(robot, "pos_gripper", 0.9)
     pinch = pinch_position(base_pose(held, robot), arm_joints(held, robot))
-    _move(held, env.objects["cube2"], pinch - np.array([0.0, 0.0, 0.02]))
-    assert atoms(model, held) == {"(Holding robot cube2)"} | (loose - {"(Loose cube2)"})
+    move_object(held, env.objects["cube2"], pinch - np.array([0.0, 0.0, 0.02]))
+    assert abstract_atoms(model, held) == {"(Holding robot cube2)"} | (loose - {"(Loose cube2)"})
 
 
 def test_grounding_and_the_cupboard_variant_has_its_own_model(env) -> None:
@@ -83,13 +76,13 @@ def test_pads_check_sees_a_cube_between_the_pads(env) -> None:
     state = env.reset(seed=1000)[0]
     cube1, cube2 = env.objects["cube1"], env.objects["cube2"]
     ctx = model.skills[0].context
-    _move(state, cube1, (0.0, 0.0, 0.41))
+    move_object(state, cube1, (0.0, 0.0, 0.41))
     for i in (2, 3, 4):  # every other cube far away
-        _move(state, env.objects[f"cube{i}"], (0.2, 0.2 * i, 0.41))
+        move_object(state, env.objects[f"cube{i}"], (0.2, 0.2 * i, 0.41))
     assert _pads_clear(ctx, state, cube1, 0.0)
     # cube2 (2 cm) touching cube1 along y. Heading pi/2: the pads close along x and would clamp
     # both cubes side by side; heading 0: they close along y, and cube2 lies outside the gap.
-    _move(state, cube2, (0.0, 0.02, 0.41))
+    move_object(state, cube2, (0.0, 0.02, 0.41))
     assert not _pads_clear(ctx, state, cube1, math.pi / 2)
     assert _pads_clear(ctx, state, cube1, 0.0)
     # ... unless the pinch point moves 5 mm (a quarter of the cube) away from cube2 along the
@@ -97,7 +90,7 @@ def test_pads_check_sees_a_cube_between_the_pads(env) -> None:
     assert _grasp_shift(ctx, state, cube1, math.pi / 2) == pytest.approx(-0.005)
     assert _grasp_shift(ctx, state, cube1, 0.0) == 0.0
     # Stacked on cube1: between the pads whichever way they close.
-    _move(state, cube2, (0.0, 0.0, 0.43))
+    move_object(state, cube2, (0.0, 0.0, 0.43))
     assert not _pads_clear(ctx, state, cube1, 0.0)
     assert not _pads_clear(ctx, state, cube1, math.pi / 2)
     assert _grasp_shift(ctx, state, cube1, 0.0) is None

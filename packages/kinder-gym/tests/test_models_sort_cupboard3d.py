@@ -11,7 +11,7 @@ from kinder_core import make_object_centric
 from kinder_garden3d.dynamic3d.env import Dynamic3DConfig
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position
-from kinder_gym.testing import check_planning_model
+from kinder_gym.testing import abstract_atoms, check_planning_model
 
 O12 = "kinder/SortClutteredBlocks3D-o12-sort_the_blocks_into_the_cupboard-v0"
 CUBES = [f"{c}_cube{i}" for c in ("blue", "green", "red") for i in (1, 2, 3)]
@@ -28,10 +28,6 @@ def env():
     e = make_object_centric(O12, config=Dynamic3DConfig(task_options=("half_size_objects",)))
     yield e
     e.close()
-
-
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
 
 
 def _stow(env, state, name: str, lateral: float = 0.0) -> None:
@@ -53,24 +49,24 @@ def test_predicates_on_hand_built_states(env) -> None:
     static = {f"(IsCube {c})" for c in CUBES} | {f"(IsRod {r})" for r in RODS}
     ground = {f"(OnGround {o})" for o in CUBES + RODS}
     start = {"(HandEmpty robot)", "(TopShelfEmpty cupboard_0)"} | static
-    assert atoms(model, state) == start | ground
+    assert abstract_atoms(model, state) == start | ground
     assert {str(a) for a in model.goal(state)} == {"(HandEmpty robot)"} | {
         f"(OnShelf {o} cupboard_0)" for o in CUBES + RODS
     }
     # red_cube1 on shelf 0 (red): OnShelf; on shelf 1 (green's): neither on the shelf nor loose.
     stowed = state.copy()
     _stow(env, stowed, "red_cube1")
-    assert atoms(model, stowed) == start | ground - {"(OnGround red_cube1)"} | {
+    assert abstract_atoms(model, stowed) == start | ground - {"(OnGround red_cube1)"} | {
         "(OnShelf red_cube1 cupboard_0)"
     }
     wrong = state.copy()
     _stow(env, wrong, "red_cube1")
     wrong.set(env.objects["red_cube1"], "z", SHELF_Z["green"] + 0.01)
-    assert atoms(model, wrong) == start | ground - {"(OnGround red_cube1)"}
+    assert abstract_atoms(model, wrong) == start | ground - {"(OnGround red_cube1)"}
     # A rod in its compartment: OnShelf, and the top shelf is no longer empty.
     rod = state.copy()
     _stow(env, rod, "green_cuboid1")
-    assert atoms(model, rod) == (start - {"(TopShelfEmpty cupboard_0)"}) | ground - {
+    assert abstract_atoms(model, rod) == (start - {"(TopShelfEmpty cupboard_0)"}) | ground - {
         "(OnGround green_cuboid1)"
     } | {"(OnShelf green_cuboid1 cupboard_0)"}
     # A closed hand with the rod's axis through the pinch point (17 cm from its centre, off
@@ -84,7 +80,7 @@ def test_predicates_on_hand_built_states(env) -> None:
         held.set(blue, feature, float(value))
     for feature, value in zip(("qw", "qx", "qy", "qz"), (0.7071, 0.0, 0.0, -0.7071), strict=True):
         held.set(blue, feature, value)  # the rod's length along x
-    assert atoms(model, held) == (start - {"(HandEmpty robot)"}) | ground - {
+    assert abstract_atoms(model, held) == (start - {"(HandEmpty robot)"}) | ground - {
         "(OnGround blue_cuboid1)"
     } | {"(Holding robot blue_cuboid1)"}
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from kinder_gym.testing import abstract_atoms
+
 pytest.importorskip("kinder_garden3d")
 
 from kinder_core import make_object_centric
@@ -29,21 +31,25 @@ def env():
     e.close()
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
 def test_predicates_on_edited_states(env) -> None:
     model = create_model(env)
     state = env.reset(seed=1000)[0]
-    assert atoms(model, state) == {"(HandEmpty robot)", "(Free wiper_0)", "(OnFloor cube_0)"}
+    assert abstract_atoms(model, state) == {
+        "(HandEmpty robot)",
+        "(Free wiper_0)",
+        "(OnFloor cube_0)",
+    }
     assert {str(a) for a in model.goal(state)} == {"(InArea cube_0)"}
     cube, robot, wiper = env.objects["cube_0"], env.objects["robot"], env.objects["wiper_0"]
     # The block moved into the goal box (left of the island) is InArea, no longer OnFloor.
     inside = state.copy()
     inside.set(cube, "x", 0.5)
     inside.set(cube, "y", 1.2)
-    assert atoms(model, inside) == {"(HandEmpty robot)", "(Free wiper_0)", "(InArea cube_0)"}
+    assert abstract_atoms(model, inside) == {
+        "(HandEmpty robot)",
+        "(Free wiper_0)",
+        "(InArea cube_0)",
+    }
     assert env.goal_atoms(inside)["on(cube_0, sweep_region)"]
     # A closed hand at the standing wiper's head, 8 cm from its middle, holds it.
     held = state.copy()
@@ -51,16 +57,16 @@ def test_predicates_on_edited_states(env) -> None:
     pinch = pinch_position(base_pose(held, robot), arm_joints(held, robot))
     for feature, value in zip(("x", "y", "z"), pinch - np.array([0.08, 0.0, 0.02]), strict=True):
         held.set(wiper, feature, value)
-    assert atoms(model, held) == {"(Holding robot wiper_0)", "(OnFloor cube_0)"}
+    assert abstract_atoms(model, held) == {"(Holding robot wiper_0)", "(OnFloor cube_0)"}
     # The same wiper tipped over is not held.
     tipped = held.copy()
     for feature, value in zip(("qw", "qx", "qy", "qz"), (0.707, 0.707, 0.0, 0.0), strict=True):
         tipped.set(wiper, feature, value)
-    assert atoms(model, tipped) == {"(Free wiper_0)", "(OnFloor cube_0)"}
+    assert abstract_atoms(model, tipped) == {"(Free wiper_0)", "(OnFloor cube_0)"}
     # Closed on nothing: neither HandEmpty nor Holding.
     fist = state.copy()
     fist.set(robot, "pos_gripper", 0.99)
-    assert atoms(model, fist) == {"(Free wiper_0)", "(OnFloor cube_0)"}
+    assert abstract_atoms(model, fist) == {"(Free wiper_0)", "(OnFloor cube_0)"}
 
 
 def test_base_clearance_of_the_kitchen_fixtures() -> None:

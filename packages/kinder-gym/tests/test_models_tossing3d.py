@@ -13,7 +13,7 @@ from kinder_core import make_object_centric
 from kinder_gym.models import create_model
 from kinder_gym.models.dynamic3d.tidybot import arm_joints, base_pose, pinch_position
 from kinder_gym.skills import SkillFailure, execute_skill
-from kinder_gym.testing import check_planning_model
+from kinder_gym.testing import abstract_atoms, check_planning_model
 
 
 @pytest.fixture(scope="module")
@@ -23,14 +23,10 @@ def env():
     e.close()
 
 
-def atoms(model, state) -> set[str]:
-    return {str(a) for a in model.abstract(state)}
-
-
 def test_predicates_on_hand_built_states(env) -> None:
     model = create_model(env)
     state = env.reset(seed=0)[0]
-    assert atoms(model, state) == {
+    assert abstract_atoms(model, state) == {
         "(HandEmpty robot)",
         "(OnGround cube_0)",
         "(OnGround cube_1)",
@@ -46,7 +42,7 @@ def test_predicates_on_hand_built_states(env) -> None:
     bin_xy = [state.get(objs["bin_0"], f) for f in ("x", "y")]
     for feature, value in zip(("x", "y", "z"), [*bin_xy, 0.0325], strict=True):
         edited.set(objs["cube_0"], feature, value)
-    assert atoms(model, edited) == {
+    assert abstract_atoms(model, edited) == {
         "(HandEmpty robot)",
         "(InBin cube_0 bin_0)",
         "(OnGround cube_1)",
@@ -57,8 +53,8 @@ def test_predicates_on_hand_built_states(env) -> None:
     angle = math.radians(50.0)
     for feature, value in (("qw", math.cos(angle / 2)), ("qy", math.sin(angle / 2))):
         tipped.set(objs["cuboid_barrier"], feature, value)
-    assert "(Upright cuboid_barrier)" not in atoms(model, tipped)
-    assert "(Toppled cuboid_barrier)" not in atoms(model, tipped)
+    assert "(Upright cuboid_barrier)" not in abstract_atoms(model, tipped)
+    assert "(Toppled cuboid_barrier)" not in abstract_atoms(model, tipped)
     # A closed hand whose pinch point is at cube_1 (lifted) holds it; HandEmpty goes away.
     robot = objs["robot"]
     held = state.copy()
@@ -66,7 +62,7 @@ def test_predicates_on_hand_built_states(env) -> None:
     pinch = pinch_position(base_pose(held, robot), arm_joints(held, robot))
     for feature, value in zip(("x", "y", "z"), pinch - np.array([0.0, 0.0, 0.01]), strict=True):
         held.set(objs["cube_1"], feature, value)
-    assert atoms(model, held) == {
+    assert abstract_atoms(model, held) == {
         "(Holding robot cube_1)",
         "(OnGround cube_0)",
         "(Upright cuboid_barrier)",
@@ -169,4 +165,4 @@ def test_drop_over_reaches_the_fixed_bin(env) -> None:
         check_params_space=True,
     )
     assert env.goal_atoms(state)["on(cube_0, blocks_goal_region)"]
-    assert "(Upright cuboid_barrier)" in atoms(model, state)
+    assert "(Upright cuboid_barrier)" in abstract_atoms(model, state)

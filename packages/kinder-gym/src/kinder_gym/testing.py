@@ -327,3 +327,15 @@ def check_planning_model(
         else:
             raise AssertionError(f"{name} never reached its prediction in {samples} samples")
     return state
+
+
+def abstract_atoms(model: PlanningModel, state: ObjectCentricState) -> set[str]:
+    """The model's abstract state of ``state`` as strings (``"Holding(robot, cube1)"``), for
+    tests that compare it with an expected set."""
+    return {str(a) for a in model.abstract(state)}
+
+
+def move_object(state: ObjectCentricState, obj: Object, xyz: Sequence[float]) -> None:
+    """Set ``obj``'s x, y and z features in ``state`` (a hand-built test state)."""
+    for feature, value in zip(("x", "y", "z"), xyz, strict=True):
+        state.set(obj, feature, float(value))
