@@ -129,3 +129,22 @@ def test_write_report(tmp_path: Path) -> None:
     assert paths["csv"].read_text().count("\n") == 2
     with pytest.raises(FileNotFoundError, match="not a run directory"):
         write_report([tmp_path / "missing"])
+
+
+def test_write_report_of_the_first_episodes_of_each_seed(tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in _example()))
+    (run / "config.json").write_text(json.dumps({"runs": [{"run_id": "r1", "command": "go"}]}))
+    _, paths = write_report([run], tmp_path / "first", plot=False, first_episodes=1)
+    (row,) = csv.DictReader(io.StringIO(paths["csv"].read_text()))
+    episodes = {(r["seed"], r["episode"]) for r in _example() if r["episode"] < 1}
+    assert row["episodes"] == str(len(episodes))
+    assert float(row["sr_mean"]) == pytest.approx(2 / 3)  # seeds 0 and 1 succeed at episode 0
+    assert row["command"].startswith("go; then kinder bench report ")
+    assert row["command"].endswith(f"--first-episodes 1 --out {tmp_path / 'first'}")
+    # The run directory's own summary describes the whole run: a subset needs its own folder.
+    with pytest.raises(ValueError, match="needs an output directory"):
+        write_report([run], first_episodes=1)
+    with pytest.raises(ValueError, match="expected an integer >= 1"):
+        write_report([run], tmp_path / "none", first_episodes=0)

@@ -107,33 +107,51 @@ def test_heldout_table_pairs_the_same_run_on_unseen_seeds_and_marks_a_gap() -> N
     other_args = _bp((100, 101, 102, 103, 104), 0.10, samples_per_step=7)
     table = heldout_markdown([evaluation, heldout, other_args], [BUTTON, MOTION])
     (row,) = [line for line in table.splitlines() if line.startswith("| StickButton2D-b1")]
-    assert "0.90 ± 0.02" in row and "0.80 ± 0.02" in row and "100–104" in row
+    assert "| 50 | 0.90 ± 0.02 | 0.80 ± 0.02 | 100–104 |" in row
     assert "-0.10 (larger than the std)" in row
-    assert "| Motion2D-p0 | -- | not run | not run |" in table
+    assert "| Motion2D-p0 | -- | -- | not run | not run |" in table
     # A transcribed row or one measured before its env followed upstream is never paired.
     gone = dataclasses.replace(heldout, provenance="transcribed from x.md @ abc")
     assert "not run" in heldout_markdown([evaluation, gone], [BUTTON])
+    # A 5 x 10 held-out run pairs with the first 10 episodes of each evaluation seed, never
+    # with the whole 5 x 50 run.
+    short = dataclasses.replace(heldout, episodes=50, success=Stat(0.70, 0.1, 5))
+    assert "not run" in heldout_markdown([evaluation, short], [BUTTON])
+    first_ten = dataclasses.replace(evaluation, episodes=50, success=Stat(0.72, 0.1, 5))
+    table = heldout_markdown([evaluation, first_ten, short], [BUTTON])
+    (row,) = [line for line in table.splitlines() if line.startswith("| StickButton2D-b1")]
+    assert "| 10 | 0.72 ± 0.10 | 0.70 ± 0.10 | 100–104 | -0.02 |" in row
 
 
 def test_attribution_table_sets_the_papers_bp_beside_our_default() -> None:
     ours = _bp((0, 1, 2, 3, 4), 0.98)
     paper_bp = _bp((0, 1, 2, 3, 4), 0.60, **PAPER_BP)
     table = attribution_markdown([ours, paper_bp], [BUTTON, MOTION])
-    assert "| StickButton2D-b1 | 0.60 ± 0.02 | 0.98 ± 0.02 | +0.38 |" in table
-    assert "| Motion2D-p0 | not run | not run | -- |" in table
+    assert "| StickButton2D-b1 | 50 | 0.60 ± 0.02 | 0.98 ± 0.02 | +0.38 |" in table
+    assert "| Motion2D-p0 | 50 | not run | not run | -- |" in table
     # Held-out seeds never stand in for the evaluation seeds.
     later = dataclasses.replace(paper_bp, seeds=(100, 101, 102, 103, 104))
-    assert "| StickButton2D-b1 | not run | 0.98 ± 0.02 | -- |" in attribution_markdown(
+    assert "| StickButton2D-b1 | 50 | not run | 0.98 ± 0.02 | -- |" in attribution_markdown(
         [ours, later], [BUTTON]
+    )
+    # Without a 5 x 50 pair, the two compare on the most episodes per seed both ran: our 5 x 10
+    # run against the first 10 episodes of each seed of the paper-settings run.
+    ours_ten = dataclasses.replace(ours, episodes=50, success=Stat(0.90, 0.1, 5))
+    paper_ten = dataclasses.replace(paper_bp, episodes=50, success=Stat(0.70, 0.1, 5))
+    assert "| StickButton2D-b1 | 10 | 0.70 ± 0.10 | 0.90 ± 0.10 | +0.20 |" in (
+        attribution_markdown([paper_bp, paper_ten, ours_ten], [BUTTON])
+    )
+    assert "| StickButton2D-b1 | 50 | 0.60 ± 0.02 | 0.98 ± 0.02 | +0.38 |" in (
+        attribution_markdown([paper_bp, paper_ten, ours_ten, ours], [BUTTON])
     )
     # Our default BP run by a campaign under its label counts as ours; a labelled run at the
     # paper's settings is a variant, never the paper's cell.
     labelled = dataclasses.replace(ours, method="bp-ours")
     labelled_paper = dataclasses.replace(paper_bp, method="bp-paper")
-    assert "| StickButton2D-b1 | 0.60 ± 0.02 | 0.98 ± 0.02 | +0.38 |" in attribution_markdown(
-        [labelled, paper_bp], [BUTTON]
+    assert "| StickButton2D-b1 | 50 | 0.60 ± 0.02 | 0.98 ± 0.02 | +0.38 |" in (
+        attribution_markdown([labelled, paper_bp], [BUTTON])
     )
-    assert "| StickButton2D-b1 | not run | 0.98 ± 0.02 | -- |" in attribution_markdown(
+    assert "| StickButton2D-b1 | 50 | not run | 0.98 ± 0.02 | -- |" in attribution_markdown(
         [labelled, labelled_paper], [BUTTON]
     )
 

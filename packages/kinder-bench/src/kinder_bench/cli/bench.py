@@ -190,12 +190,19 @@ def _suite_envs(suite: str | None) -> list[str]:
 
 
 def _report(
-    run_dirs: list[Path], out: Path | None, plot: bool, paper: bool = False, html: bool = False
+    run_dirs: list[Path],
+    out: Path | None,
+    plot: bool,
+    paper: bool = False,
+    html: bool = False,
+    first_episodes: int | None = None,
 ) -> None:
     from kinder_bench.reporting.report import write_report
 
     with user_errors():
-        md, paths = write_report(run_dirs, out, plot=plot, paper=paper, html=html)
+        md, paths = write_report(
+            run_dirs, out, plot=plot, paper=paper, html=html, first_episodes=first_episodes
+        )
     typer.echo(md)
     typer.echo("wrote " + ", ".join(str(p) for p in paths.values()), err=True)
 
@@ -217,6 +224,13 @@ def bench_report(
     html: Annotated[
         bool, typer.Option(help="Also write report.html, one self-contained page.")
     ] = False,
+    first_episodes: Annotated[
+        int | None,
+        typer.Option(
+            help="Aggregate only the first N episodes of each seed (the same instances as a "
+            "run of N episodes per seed); needs --out."
+        ),
+    ] = None,
 ) -> None:
     """Aggregate run directories: print the SR / Rwd / Inf-Time table, write CSV and a plot."""
-    _report(run_dirs, out, plot, paper=paper, html=html)
+    _report(run_dirs, out, plot, paper=paper, html=html, first_episodes=first_episodes)

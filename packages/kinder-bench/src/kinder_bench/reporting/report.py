@@ -116,6 +116,7 @@ def write_report(
     html: bool = False,
     title: str = "KinDERBench report",
     note: str = "",
+    first_episodes: int | None = None,
 ) -> tuple[str, dict[str, Path]]:
     """Aggregate run directories and write the report to ``out_dir`` (default: the first run
     directory): ``table.md``, ``summary.csv`` and (``plot``) ``success.png``; with ``paper`` the
@@ -123,16 +124,38 @@ def write_report(
     (:mod:`kinder_bench.reporting.paper`); with ``html`` the self-contained ``report.html``
     (:mod:`kinder_bench.reporting.html_report`, with the not-run paper cells when ``paper``).
 
+    ``first_episodes`` aggregates only the first N episodes of each seed. A runner's episode
+    ``k`` of seed ``s`` is the same instance whatever the run's episode count (its env seed is
+    the ``k``-th draw of ``default_rng(s)``), so this compares a 5 × 50 run with a 5 × 10 run on
+    the same 50 instances. Each row's command then says how the subset was taken, and the
+    report is written to ``out_dir``, which must be given (a run directory's own summary stays
+    the whole run's).
+
     Returns the markdown (the paper comparison's when ``paper``, else the results table) and the
     paths written.
     """
     records = load_run_dirs(run_dirs)
+    if first_episodes is not None:
+        if first_episodes < 1:
+            raise ValueError(f"first_episodes {first_episodes}: expected an integer >= 1")
+        if out_dir is None:
+            raise ValueError(
+                "first_episodes needs an output directory (--out): the run directory's "
+                "summary.csv describes all its episodes"
+            )
+        records = [r for r in records if int(r["episode"]) < first_episodes]
     summaries = aggregate(records)
     if not summaries:
         raise ValueError(f"No results in {[str(d) for d in run_dirs]}")
     out = Path(out_dir if out_dir is not None else run_dirs[0])
     out.mkdir(parents=True, exist_ok=True)
     commands = run_commands(run_dirs)
+    if first_episodes is not None:
+        sources = " ".join(str(d) for d in run_dirs)
+        subset = f"kinder bench report {sources} --first-episodes {first_episodes} --out {out}"
+        commands = {
+            run_id: f"{command}; then {subset}" for run_id, command in commands.items()
+        } or {s.run_id: subset for s in summaries}
     trainings = run_trainings(run_dirs)
     md = markdown_table(summaries)
     paths = {"table": out / TABLE_FILE, "csv": out / CSV_FILE}

@@ -188,14 +188,27 @@ def _with_settings(result: Result, extra: dict[str, str]) -> Result:
     return dataclasses.replace(result, settings=settings)
 
 
+def _per_seed(r: Result) -> int | None:
+    """Episodes per run seed (None: seeds not recorded, or uneven)."""
+    if not r.seeds or r.episodes % len(r.seeds):
+        return None
+    return r.episodes // len(r.seeds)
+
+
 def _current(r: Result) -> bool:
-    """Measured by us, 50 episodes per seed, on the env as it is now."""
+    """Measured by us, the same number of episodes on each seed, on the env as it is now."""
     return (
         not r.provenance
-        and r.seeds is not None
-        and r.episodes == len(r.seeds) * PAPER_EPISODES
+        and _per_seed(r) is not None
         and PRE_CONFORMANCE not in protocol_deviations(r)
     )
+
+
+def _paper_apart_from_count(r: Result) -> bool:
+    """At the paper's protocol in everything but its episodes per seed (a 5 × 10 subset of a
+    paper-protocol run, say)."""
+    whole = dataclasses.replace(r, episodes=r.num_seeds * PAPER_EPISODES)
+    return not r.is_variant and not protocol_deviations(whole)
 
 
 def _sr(r: Result | None) -> str:
@@ -204,11 +217,13 @@ def _sr(r: Result | None) -> str:
 
 def heldout_markdown(results: Sequence[Result], envs: Sequence[str]) -> str:
     """Each run on the evaluation seeds (0–4) beside the same agent, arguments and env on run
-    seeds never used for tuning: whether the figure holds on unseen episodes. A gap larger than
-    the evaluation figure's std across seeds is marked."""
+    seeds never used for tuning, with the same episodes per seed (so a 5 × 10 held-out run is
+    paired with the first 10 episodes of each evaluation seed): whether the figure holds on
+    unseen episodes. A gap larger than the evaluation figure's std across seeds is marked."""
     lines = [
-        "| env | run | SR, seeds 0–4 × 50 | SR, held-out seeds × 50 | held-out seeds | gap |",
-        "|---|---|---|---|---|---|",
+        "| env | run | episodes per seed | SR, seeds 0–4 | SR, held-out seeds | held-out seeds "
+        "| gap |",
+        "|---|---|---|---|---|---|---|",
     ]
     for env in envs:
         before = len(lines)
@@ -223,6 +238,7 @@ def heldout_markdown(results: Sequence[Result], envs: Sequence[str]) -> str:
                 and r.agent == ev.agent
                 and r.method == ev.method
                 and r.agent_args == ev.agent_args
+                and _per_seed(r) == _per_seed(ev)
                 and not set(r.seeds or ()) & set(PAPER_SEEDS)
             ]
             for h in held:
@@ -231,11 +247,11 @@ def heldout_markdown(results: Sequence[Result], envs: Sequence[str]) -> str:
                 flag = " (larger than the std)" if abs(gap) > std else ""
                 seeds = f"{min(h.seeds or (0,))}–{max(h.seeds or (0,))}"
                 lines.append(
-                    f"| {short_id(env)} | {variant_name(ev)} | {_sr(ev)} | {_sr(h)} | {seeds} "
-                    f"| {gap:+.2f}{flag} |"
+                    f"| {short_id(env)} | {variant_name(ev)} | {_per_seed(ev)} | {_sr(ev)} "
+                    f"| {_sr(h)} | {seeds} | {gap:+.2f}{flag} |"
                 )
         if len(lines) == before:
-            lines.append(f"| {short_id(env)} | -- | not run | not run | -- | -- |")
+            lines.append(f"| {short_id(env)} | -- | -- | not run | not run | -- | -- |")
     return "\n".join(lines) + "\n"
 
 
@@ -245,11 +261,14 @@ def attribution_markdown(results: Sequence[Result], envs: Sequence[str]) -> str:
     how much of our BP's figure comes from the planner's monitoring and how much from the
     skills the two share. Our default BP may carry a label (a campaign's ``bp-ours``): its
     arguments, not its name, say what it is; the paper-settings column takes unlabelled rows
-    only, as the paper's cells do."""
+    only, as the paper's cells do. The two are compared on the same episodes: 50 per seed
+    where both ran them, else the most episodes per seed both have (the first N of each seed
+    are the same instances in every run)."""
     default_args = dataclasses.asdict(agent_class("bilevel_planning").Args())
     lines = [
-        "| env | BP at the paper's settings (SR) | BP, our default (SR) | ours − paper settings |",
-        "|---|---|---|---|",
+        "| env | episodes per seed | BP at the paper's settings (SR) | BP, our default (SR) "
+        "| ours − paper settings |",
+        "|---|---|---|---|---|",
     ]
     for env in envs:
         runs = [
@@ -260,14 +279,17 @@ def attribution_markdown(results: Sequence[Result], envs: Sequence[str]) -> str:
             and _current(r)
             and tuple(sorted(r.seeds or ())) == PAPER_SEEDS
         ]
-        paper_run = next((r for r in runs if not r.is_variant and not protocol_deviations(r)), None)
-        ours = next((r for r in runs if r.agent_args == default_args), None)
+        paper_runs = {_per_seed(r): r for r in runs if _paper_apart_from_count(r)}
+        ours_runs = {_per_seed(r): r for r in runs if r.agent_args == default_args}
+        both = sorted((n for n in paper_runs if n in ours_runs), key=lambda n: n or 0)
+        count = both[-1] if both else PAPER_EPISODES
+        paper_run, ours = paper_runs.get(count), ours_runs.get(count)
         diff = (
             f"{(ours.success.mean or 0.0) - (paper_run.success.mean or 0.0):+.2f}"
             if ours is not None and paper_run is not None
             else "--"
         )
-        lines.append(f"| {short_id(env)} | {_sr(paper_run)} | {_sr(ours)} | {diff} |")
+        lines.append(f"| {short_id(env)} | {count} | {_sr(paper_run)} | {_sr(ours)} | {diff} |")
     return "\n".join(lines) + "\n"
 
 
