@@ -411,6 +411,9 @@ IK_STARTS: tuple[tuple[float, ...], ...] = (
     (0.0,) * 7,
     *(tuple(float(v) for v in row) for row in np.random.default_rng(0).uniform(-2.0, 2.0, (24, 7))),
 )
+#: How far inside the arm's joint limits ``grasp_arm_joints(within_limits=True)`` keeps its
+#: null-space IK (rad).
+IK_LIMIT_MARGIN = 0.05
 #: Reset draws before falling back to the nominal start, and the shrink of the noise per draw.
 MAX_INIT_DRAWS = 20
 INIT_NOISE_DECAY = 0.75
@@ -882,13 +885,16 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         limb_joints: NDArray[np.float64],
         first: tuple[float, ...] | None = None,
         only_first: bool = False,
+        within_limits: bool = False,
     ) -> tuple[NDArray[np.float64], float]:
         """The arm joints holding the grasp of the limb at ``limb_joints`` and their gripper
         position error (m), solved as the reset solves it, trying ``first`` (e.g. the arm's
         current joints, to stay on its branch) before the reset's starts (``only_first``: no
         others, so the answer stays near ``first`` even when it misses). Planners use it to
-        turn a limb path into an arm path. Moves the simulator's bodies (every transition
-        loads its state first)."""
+        turn a limb path into an arm path. ``within_limits``: solve with pybullet's null-space
+        IK instead, bounded :data:`IK_LIMIT_MARGIN` inside the arm's joint limits and drawn
+        toward each start (the reset never uses it). Moves the simulator's bodies (every
+        transition loads its state first)."""
         cid = self._client()
         scene = self._scene
         self._set_limb(cid, limb_joints)
@@ -902,6 +908,7 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
             if pb.getJointInfo(scene.robot, j, physicsClientId=cid)[2] != pb.JOINT_FIXED
         ]
         arm_pos = [movable.index(j) for j in scene._arm_idx]
+        bounds = self._ik_bounds(movable, arm_pos) if within_limits else None
         base = self.variant.robot_base
         best, best_err = np.array(self.config.robot_initial_joints), math.inf
         starts = [] if first is None else [first]
@@ -913,6 +920,19 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
             q = np.array(start, dtype=np.float64)
             scene.set_robot(np.array([*base, *q]), 0.0)
             for _ in range(self.config.ik_iterations):
+                null_space: dict[str, list[float]] = {}
+                if bounds is not None:
+                    rest = [
+                        pb.getJointState(scene.robot, j, physicsClientId=cid)[0] for j in movable
+                    ]
+                    for i, k in enumerate(arm_pos):
+                        rest[k] = float(start[i])
+                    null_space = {
+                        "lowerLimits": bounds[0],
+                        "upperLimits": bounds[1],
+                        "jointRanges": bounds[2],
+                        "restPoses": rest,
+                    }
                 sol = pb.calculateInverseKinematics(
                     scene.robot,
                     link,
@@ -921,6 +941,7 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
                     maxNumIterations=100,
                     residualThreshold=1e-6,
                     physicsClientId=cid,
+                    **null_space,
                 )
                 # pybullet's IK ignores joint ranges; a full turn is the same pose, so wrap
                 # into [-pi, pi).
@@ -937,6 +958,24 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
             if err < best_err:
                 best, best_err = q, err
         return best, best_err
+
+    def _ik_bounds(
+        self, movable: list[int], arm_pos: list[int]
+    ) -> tuple[list[float], list[float], list[float]]:
+        """Lower and upper limits and ranges of the robot's movable joints for pybullet's
+        null-space IK: the arm's limits less :data:`IK_LIMIT_MARGIN` (continuous joints: ±2π),
+        the fingers' own."""
+        cid = self._scene.client
+        lo, hi = [], []
+        for j in movable:
+            info = pb.getJointInfo(self._scene.robot, j, physicsClientId=cid)
+            lo.append(float(info[8]))
+            hi.append(max(float(info[9]), float(info[8])))
+        for i, k in enumerate(arm_pos):
+            low, high = float(self._arm_low[i]), float(self._arm_high[i])
+            lo[k] = low + IK_LIMIT_MARGIN if math.isfinite(low) else -2.0 * math.pi
+            hi[k] = high - IK_LIMIT_MARGIN if math.isfinite(high) else 2.0 * math.pi
+        return lo, hi, [h - lo_ for lo_, h in zip(lo, hi, strict=True)]
 
     # -- the contract ---------------------------------------------------------------------------
     def box_objects(self) -> list[Object]:
