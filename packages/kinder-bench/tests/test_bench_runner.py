@@ -90,6 +90,8 @@ def test_records_have_the_schema(toy_id: str, tmp_path: Path) -> None:
         "reward",
         "steps",
         "inference_time",
+        "inference_cpu_time",
+        "load_avg",
         "env_time",
         "error",
         "error_in",
@@ -103,6 +105,9 @@ def test_records_have_the_schema(toy_id: str, tmp_path: Path) -> None:
     assert mpc["agent_args"]["horizon"] == 15 and mpc["agent_args"]["noise_fraction"] == 1.0
     assert mpc["max_steps"] == 40  # the env's registered budget
     assert "numpy" in rec["versions"] and "kinder-bench" in rec["versions"]
+    # The agent's CPU time and the machine's load say how busy the machine was.
+    assert rec["inference_cpu_time"] >= 0.0
+    assert rec["load_avg"] is None or rec["load_avg"] >= 0.0
     config = json.loads((tmp_path / CONFIG_FILE).read_text())
     assert {r["agent"] for r in config["runs"]} == {"random", "mpc"}
     assert config["imports"] == list(IMPORTS)
@@ -184,6 +189,8 @@ def test_agent_crash_is_recorded_as_a_failure(toy_id: str, tmp_path: Path) -> No
         assert r["error"] == "ValueError: boom" and "boom" in r["traceback"]
         # The time of the call that raised is counted (a sleep lasts at least its duration).
         assert r["inference_time"] >= CRASH_THINK
+        # A sleeping agent spends wall-clock time, not CPU time.
+        assert r["inference_cpu_time"] < r["inference_time"]
 
 
 def test_unknown_env_and_agent_fail_before_running(toy_id: str, tmp_path: Path) -> None:

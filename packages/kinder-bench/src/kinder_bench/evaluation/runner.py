@@ -24,6 +24,7 @@ import hashlib
 import importlib
 import json
 import math
+import os
 import sys
 import time
 import traceback
@@ -54,8 +55,9 @@ from kinder_bench.evaluation.results import (
 )
 from kinder_bench.evaluation.summary import CSV_FILE, csv_table, dedupe, run_commands, run_trainings
 
-#: Fields that are wall-clock measurements (everything else in a record is deterministic).
-TIMING_FIELDS = ("inference_time", "env_time", "finished_at")
+#: Fields that are wall-clock measurements or describe the machine while the episode ran
+#: (everything else in a record is deterministic).
+TIMING_FIELDS = ("inference_time", "inference_cpu_time", "load_avg", "env_time", "finished_at")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -260,7 +262,7 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         "agent_seed": task.agent_seed,
     }
     success, steps, total_reward = False, 0, 0.0
-    inference_time = env_time = 0.0
+    inference_time = inference_cpu = env_time = 0.0
     error: str | None = None
     error_in: str | None = None
     trace: str | None = None
@@ -282,18 +284,20 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         phase = "agent"
         # Agent time is counted in `finally`, so a call that raises (e.g. a planner giving up
         # after its budget) still reports the time it spent.
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         try:
             agent.reset(obs, info)
         finally:
             inference_time += time.perf_counter() - t0
+            inference_cpu += time.process_time() - c0
         while steps < task.max_steps:
             phase = "agent"
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             try:
                 action = agent.act(obs)
             finally:
                 inference_time += time.perf_counter() - t0
+                inference_cpu += time.process_time() - c0
             phase = "env"
             t0 = time.perf_counter()
             obs, r, terminated, truncated, info = env.step(action)
@@ -335,6 +339,11 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         reward=reward,
         steps=steps,
         inference_time=inference_time,
+        # The agent's CPU time beside its wall-clock time, and the machine's load: a planner
+        # with a wall-clock budget (BP's planning_timeout) solves less on a busy machine, and
+        # these say how busy it was.
+        inference_cpu_time=inference_cpu,
+        load_avg=_load_avg(),
         env_time=env_time,
         error=error,
         error_in=error_in,
@@ -344,6 +353,14 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         finished_at=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
     )
     return record
+
+
+def _load_avg() -> float | None:
+    """The machine's 1-minute load average (runnable processes; None where the OS has none)."""
+    try:
+        return round(os.getloadavg()[0], 2)
+    except (AttributeError, OSError):
+        return None
 
 
 def sort_key(record: Mapping[str, Any]) -> tuple[Any, ...]:
