@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -177,6 +178,36 @@ def test_args_are_validated() -> None:
         BilevelPlanningArgs(samples_per_step=0)
     with pytest.raises(ValueError, match="max_model_steps"):
         BilevelPlanningArgs(max_model_steps=-1)
+    with pytest.raises(ValueError, match="planning_clock must be one of"):
+        BilevelPlanningArgs(planning_clock="cpu")
+
+
+def test_process_clock_does_not_count_time_the_planner_waits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A wall-clock budget is spent while the planner waits for the CPU (here: sleeps in every
+    skill sample); a CPU-time budget (planning_clock="process") is not."""
+    import kinder_bench.baselines.bilevel_planning as bp
+
+    env, x0 = _toy()
+    waits = {"n": 0}
+    execute = bp.execute_skill
+
+    def slow_execute(*args: Any, **kwargs: Any) -> Any:
+        waits["n"] += 1
+        time.sleep(0.3)
+        return execute(*args, **kwargs)
+
+    monkeypatch.setattr(bp, "execute_skill", slow_execute)
+    wall = BilevelPlanner(make_toy_model(env), BilevelPlanningArgs(planning_timeout=0.25))
+    assert wall.plan(x0, np.random.default_rng(0)) is None and wall.stats.timed_out
+    assert waits["n"] <= 1  # the first sample's wait used up the budget
+    waits["n"] = 0
+    cpu = BilevelPlanningArgs(planning_timeout=0.25, planning_clock="process")
+    process = BilevelPlanner(make_toy_model(env), cpu)
+    assert process.plan(x0, np.random.default_rng(0)) is not None
+    assert not process.stats.timed_out and waits["n"] >= 2
+    assert process.stats.time >= 0.3 * waits["n"]  # longer than the budget, on the wall clock
 
 
 def test_model_step_budget_is_deterministic() -> None:
@@ -260,9 +291,11 @@ def test_planning_failure_is_raised_by_the_call_that_planned() -> None:
     ],
 )
 def test_solves_small_seeded_instances(env_id: str, seeds: Sequence[int]) -> None:
+    # 30 CPU seconds per call: the same search however busy the test machine is.
+    args = BilevelPlanningArgs(planning_timeout=30, planning_clock="process")
     env = make_object_centric(env_id)
     for seed in seeds:
-        reached, stats = plan_reaches_goal(env, seed, BilevelPlanningArgs(planning_timeout=30))
+        reached, stats = plan_reaches_goal(env, seed, args)
         assert reached, (env_id, seed, stats)
 
 

@@ -184,12 +184,13 @@ def execute_skill(
     max_steps: int,
     stop_on_goal: bool = True,
     deadline: float = math.inf,
+    clock: Callable[[], float] = time.perf_counter,
 ) -> SkillRollout:
     """Run ``controller`` from ``state`` with ``params`` through ``transition``.
 
     Stops when the controller terminates, after ``max_steps`` actions, or (with ``stop_on_goal``)
     when a transition reports that the env's goal is reached, or when ``deadline`` (a
-    ``time.perf_counter()`` value) passes. Raises :class:`SkillFailure` if the
+    ``clock()`` value: wall-clock by default) passes. Raises :class:`SkillFailure` if the
     controller is not initiable or fails.
 
     The controller is handed copies of the states: one that edits what it is given (a skill
@@ -205,7 +206,7 @@ def execute_skill(
     for k in range(max_steps):
         if controller.terminated():
             break
-        if k % 16 == 0 and time.perf_counter() > deadline:
+        if k % 16 == 0 and clock() > deadline:
             return SkillRollout(states, actions, False, False, timed_out=True)
         action = controller.step()
         state, _, terminated = transition(state, action)

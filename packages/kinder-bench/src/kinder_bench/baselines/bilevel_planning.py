@@ -37,9 +37,11 @@ of calls that raise, so the failed planning time is part of the episode's infere
 Everything random comes from the agent's seeded RNG, so an episode's plan is reproducible as
 long as no planning call reaches ``planning_timeout``. That budget is wall-clock seconds, as in the
 paper, so where a call is cut off depends on the machine's speed and load: the same seed can then
-give a different plan (or none) on a busier machine. For runs that must reproduce exactly in any
-process, bound the planner by simulated env steps instead (``max_model_steps``, counted over every
-skill rollout of the call) and lift the wall-clock budget (``planning_timeout=inf``).
+give a different plan (or none) on a busier machine. ``planning_clock="process"`` counts the
+budget in the agent process's CPU seconds instead, which a busy machine does not shorten. For
+runs that must reproduce exactly in any process, bound the planner by simulated env steps
+instead (``max_model_steps``, counted over every skill rollout of the call) and lift the
+wall-clock budget (``planning_timeout=inf``).
 """
 
 from __future__ import annotations
@@ -70,6 +72,9 @@ from kinder_gym.skills import SkillFailure, execute_skill
 
 FloatArray = NDArray[np.float64]
 
+#: The clocks ``planning_timeout`` can count (``BilevelPlanningArgs.planning_clock``).
+PLANNING_CLOCKS = {"wall": time.perf_counter, "process": time.process_time}
+
 
 @dataclasses.dataclass(frozen=True)
 class BilevelPlanningArgs:
@@ -88,8 +93,13 @@ class BilevelPlanningArgs:
     max_skill_horizon: int = 0
     """Most env steps per skill execution; 0: the env model's own default."""
     planning_timeout: float = 60.0
-    """Wall-clock seconds for one planning call (abstract search and refinement together);
-    ``inf`` for no wall-clock limit."""
+    """Seconds for one planning call (abstract search and refinement together), on
+    ``planning_clock``; ``inf`` for no time limit."""
+    planning_clock: str = "wall"
+    """What ``planning_timeout`` counts: ``wall`` (wall-clock seconds, as the paper) or
+    ``process`` (the agent process's CPU seconds). On a machine shared by other jobs a
+    wall-clock budget buys less search the busier the machine is; a CPU-time budget buys the
+    same search at any load (a variant: not the paper's setting)."""
     max_model_steps: int = 0
     """Simulated env steps one planning call may spend on skill rollouts: once they are spent,
     no further rollout starts and the call gives up like a timed-out one; 0: no limit. Unlike
@@ -115,6 +125,10 @@ class BilevelPlanningArgs:
             (self.samples_per_step >= 1, "samples_per_step must be >= 1"),
             (self.max_skill_horizon >= 0, "max_skill_horizon must be >= 0"),
             (self.planning_timeout > 0, "planning_timeout must be > 0"),
+            (
+                self.planning_clock in PLANNING_CLOCKS,
+                f"planning_clock must be one of {tuple(PLANNING_CLOCKS)}",
+            ),
             (self.max_model_steps >= 0, "max_model_steps must be >= 0 (0: no limit)"),
             (self.divergence_atol >= 0, "divergence_atol must be >= 0"),
             (self.max_replans >= 0, "max_replans must be >= 0"),
@@ -186,6 +200,7 @@ class BilevelPlanner:
     def __init__(self, model: PlanningModel, args: BilevelPlanningArgs) -> None:
         self.model = model
         self.args = args
+        self._clock = PLANNING_CLOCKS[args.planning_clock]
         self.horizon = args.max_skill_horizon or model.max_skill_horizon
         self.stats = PlanningStats()
         self._max_steps: int | None = None
@@ -200,7 +215,7 @@ class BilevelPlanner:
         self.stats = PlanningStats()
         self._max_steps = max_steps
         start = time.perf_counter()
-        deadline = start + self.args.planning_timeout
+        deadline = self._clock() + self.args.planning_timeout
         try:
             return self._plan(x0, rng, deadline)
         finally:
@@ -215,7 +230,15 @@ class BilevelPlanner:
         ops = model.ground_operators(x0)
         heuristic = HFF(ops, goal, s0)
         plans = abstract_plans(
-            s0, goal, ops, rng, args.search, args.max_abstract_plans, deadline, heuristic=heuristic
+            s0,
+            goal,
+            ops,
+            rng,
+            args.search,
+            args.max_abstract_plans,
+            deadline,
+            heuristic=heuristic,
+            clock=self._clock,
         )
         tried: list[AbstractPlan] = []
         for plan in plans:
@@ -241,7 +264,7 @@ class BilevelPlanner:
                     return None
                 if refined is not None:
                     return refined
-        if time.perf_counter() > deadline:
+        if self._clock() > deadline:
             self.stats.timed_out = True
         return None
 
@@ -298,7 +321,7 @@ class BilevelPlanner:
         budget = None if self._max_steps is None else self._max_steps - len(actions)
         horizon = self.horizon if budget is None else min(self.horizon, budget)
         for _ in range(1 if deterministic else self.args.samples_per_step):
-            if time.perf_counter() > deadline or self._over_step_budget():
+            if self._clock() > deadline or self._over_step_budget():
                 raise _Timeout
             gs = model.skill(op)  # a fresh controller per sample
             self.stats.skill_samples += 1
@@ -311,6 +334,7 @@ class BilevelPlanner:
                     model.env.transition,
                     horizon,
                     deadline=deadline,
+                    clock=self._clock,
                 )
             except SkillFailure:
                 self.stats.skill_failures += 1

@@ -19,7 +19,7 @@ import heapq
 import itertools
 import math
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -176,11 +176,12 @@ def abstract_plans(
     deadline: float = math.inf,
     max_plan_length: int = 100,
     heuristic: HFF | None = None,
+    clock: Callable[[], float] = time.perf_counter,
 ) -> Iterator[AbstractPlan]:
     """Distinct abstract plans from ``init`` to a state containing ``goal``, best first.
 
     Lazy: the search resumes where it stopped when the next plan is asked for. Stops when the
-    open list is empty or ``deadline`` (a ``time.perf_counter()`` value) passes.
+    open list is empty or ``deadline`` (a ``clock()`` value: wall-clock by default) passes.
     """
     if algorithm not in SEARCH_ALGORITHMS:
         raise ValueError(f"algorithm must be one of {SEARCH_ALGORITHMS}, got {algorithm!r}")
@@ -216,7 +217,7 @@ def abstract_plans(
     expansions: dict[frozenset[GroundAtom], int] = {}
     emitted: set[tuple[str, ...]] = set()
     while open_list:
-        if time.perf_counter() > deadline:
+        if clock() > deadline:
             return
         _, _, _, _, node = heapq.heappop(open_list)
         if goal <= node.atoms:
