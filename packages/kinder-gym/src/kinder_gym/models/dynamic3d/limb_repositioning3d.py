@@ -8,28 +8,28 @@ Concepts: ``AtGoal(robot, limb)`` (the env's own goal test) and ``NotAtGoal``. G
 ``AtGoal(robot, limb)``.
 
 Operator and skill: ``RepositionLimb(?robot, ?limb)`` (pre NotAtGoal; add AtGoal; delete
-NotAtGoal). The controller plans in the limb's joint space and tracks in the arm's. The limb
-path runs straight in joint space (continuous joints wrapped) from the limb's configuration to
-the goal, through a via point :data:`VIA_FRACTION` of the way where the elbow or knee is bent up
-to :data:`VIA_BEND` rad further (the parameter ``v``), cut into waypoints at most
-:data:`WAYPOINT_STEP` rad apart. Each waypoint is turned into the arm configuration that holds
-the grasp there, near the previous one so that the arm stays on its branch: the env's grasp IK
-started from the previous waypoint's solution, else from it with the elbow bent
-:data:`ELBOW_NUDGE` either way (a straight elbow bends equally well both ways), else pybullet's
-null-space IK within the arm's joint limits; a solution may not leave a joint limit further than
-the previous one did (pybullet's IK ignores the limits, and an arm driven into a limit stops
-there while the limb drifts). A joint-space PD law (gains :data:`KP`, :data:`KD`, clipped to
-the torque bounds) tracks that arm path, moving on to the next waypoint once the limb is within
-:data:`ADVANCE_TOL` of the current one (after :data:`MIN_HOLD` steps), or after ``hold`` steps
-(the parameter ``u``), and holds the last one. Where the reset's grasp IK missed (the arm's
-joints do not hold the grasp within :data:`MAX_IK_ERROR`), the weld first pulls the gripper
-onto the grasp frame: the arm is damped for :data:`SETTLE_STEPS` steps and the path is planned
-from where the limb settled. Turning the arm path into the limb path relies on the weld: the
-limb follows the gripper, and from nearby waypoints it stays on the branch it started on, except
-near a straight knee, where the bed's legs start (0.18 rad): there the straight path lets the
-knee bend backward (another branch, 3.3 rad from the goal), and bending it further first keeps
-it on its branch. The skill fails at once when a waypoint's grasp cannot be held (IK off by
-more than :data:`MAX_IK_ERROR`), e.g. where the goal's grasp lies beyond the arm's reach.
+NotAtGoal). The controller plans in the limb's joint space and tracks in the arm's. The limb path
+runs straight in joint space (continuous joints wrapped) from the limb's configuration to the goal,
+through a via point :data:`VIA_FRACTION` of the way where the elbow or knee is bent up to
+:data:`VIA_BEND` rad further (the parameter ``v``), cut into waypoints at most :data:`WAYPOINT_STEP`
+rad apart. Each waypoint is turned into the arm configuration that holds the grasp there, near the
+previous one so that the arm stays on its branch: the env's grasp IK started from the previous
+waypoint's solution, else from it with the elbow bent :data:`ELBOW_NUDGE` either way (a straight
+elbow bends equally well both ways), else pybullet's null-space IK within the arm's joint limits; a
+solution may lie no further beyond a joint limit than the arm has since the path began, give or take
+:data:`BEYOND_SLACK` (pybullet's IK ignores the limits, and an arm driven into a limit stops there
+while the limb drifts). A joint-space PD law (gains :data:`KP`, :data:`KD`, clipped to the torque
+bounds) tracks that arm path, moving on to the next waypoint once the limb is within
+:data:`ADVANCE_TOL` of the current one (after :data:`MIN_HOLD` steps), or after ``hold`` steps (the
+parameter ``u``), and holds the last one. Where the reset's grasp IK missed (the arm's joints do not
+hold the grasp within :data:`MAX_IK_ERROR`), the weld first pulls the gripper onto the grasp frame:
+the arm is damped for :data:`SETTLE_STEPS` steps and the path is planned from where the limb
+settled. Turning the arm path into the limb path relies on the weld: the limb follows the gripper,
+and from nearby waypoints it stays on the branch it started on, except near a straight knee, where
+the bed's legs start (0.18 rad): there the straight path lets the knee bend backward (another
+branch, 3.3 rad from the goal), and bending it further first keeps it on its branch. The skill fails
+at once when a waypoint's grasp cannot be held (IK off by more than :data:`MAX_IK_ERROR`), e.g.
+where the goal's grasp lies beyond the arm's reach.
 
 Measured (``kinder bench run -a bilevel_planning -e LimbRepositioning3D-<variant> --seeds
 1000-1004 --episodes 10``, development seeds): isolated-left-arm and isolated-right-arm 1.00
@@ -79,6 +79,9 @@ ADVANCE_TOL = 0.02
 MIN_HOLD = 5
 #: Steps the arm is damped for, where the reset's grasp IK missed, before the path is planned.
 SETTLE_STEPS = 60
+#: How much further (rad) beyond a joint limit than the previous waypoint's a waypoint's arm
+#: configuration may lie (an arm that starts beyond a limit first moves along it).
+BEYOND_SLACK = 0.01
 #: The elbow's index among the arm joints, and how far (rad) the grasp IK's start is bent
 #: either way when the solution from the arm's joints misses.
 _ELBOW = 3
@@ -130,6 +133,13 @@ class RepositionLimbController(Controller):
         "elbow or knee is bent 0.4·v rad beyond the straight limb path 0.3 of the way along."
     )
 
+    def sample_parameters(self, state: ObjectCentricState, rng: np.random.Generator) -> FloatArray:
+        """A uniform pace; half the samples take the straight limb path (v = 0), the others
+        bend the elbow or knee at the via point by 0.5 to 1 of :data:`VIA_BEND`."""
+        del state
+        v = 0.0 if rng.random() < 0.5 else float(rng.uniform(0.5, 1.0))
+        return np.array([rng.uniform(0.0, 1.0), v], dtype=np.float64)
+
     def reset(self, state: ObjectCentricState, params: Sequence[float] | FloatArray) -> None:
         super().reset(state, params)
         env: LimbRepositioning3DEnv = self.context
@@ -169,7 +179,7 @@ class RepositionLimbController(Controller):
                 raise SkillFailure(
                     f"no arm configuration holds the grasp at waypoint {i}/{n} ({err:.3f} m off)"
                 )
-            beyond = _beyond(q, low, high)
+            beyond = np.minimum(beyond, _beyond(q, low, high))
             self._path.append(q)
             self._limbs.append(waypoint)
             arm = tuple(float(v) for v in q)
@@ -198,7 +208,7 @@ class RepositionLimbController(Controller):
             q, err = env.grasp_arm_joints(
                 waypoint, first=start, only_first=True, within_limits=within
             )
-            if np.any(_beyond(q, low, high) > beyond):
+            if np.any(_beyond(q, low, high) > beyond + BEYOND_SLACK):
                 continue
             if err <= MAX_IK_ERROR:
                 return q, err
