@@ -210,6 +210,19 @@ def test_process_clock_does_not_count_time_the_planner_waits(
     assert process.stats.time >= 0.3 * waits["n"]  # longer than the budget, on the wall clock
 
 
+def test_planning_clock_at_its_default_leaves_run_ids_unchanged() -> None:
+    """Runs recorded before the option existed keep their ids (and so resume)."""
+    from kinder_bench.evaluation.runner import RunConfig, resolve_run, run_id
+
+    wall = resolve_run(RunConfig("kinder/Motion2D-p0-v0", "bilevel_planning", {}, (0,), 1))
+    assert wall.agent_args["planning_clock"] == "wall"  # recorded with the run
+    before = {k: v for k, v in wall.agent_args.items() if k != "planning_clock"}
+    assert wall.run_id == run_id(wall.env_id, "bilevel_planning", before, wall.max_steps)
+    cpu = {"planning_clock": "process"}
+    process = resolve_run(RunConfig("kinder/Motion2D-p0-v0", "bilevel_planning", cpu, (0,), 1))
+    assert process.run_id != wall.run_id
+
+
 def test_model_step_budget_is_deterministic() -> None:
     env = make_object_centric("kinder/StickButton2D-b3-v0")
     x0, _ = env.reset(seed=0)

@@ -144,6 +144,15 @@ def test_attribution_table_sets_the_papers_bp_beside_our_default() -> None:
     assert "| StickButton2D-b1 | 50 | 0.60 ± 0.02 | 0.98 ± 0.02 | +0.38 |" in (
         attribution_markdown([paper_bp, paper_ten, ours_ten, ours], [BUTTON])
     )
+    # A row recorded before planning_clock existed is our default too (the option's default is
+    # the behaviour it had); one recorded before respect_episode_limit existed is not.
+    args = dict(ours.agent_args or {})
+    before_clock = {k: v for k, v in args.items() if k != "planning_clock"}
+    legacy = dataclasses.replace(ours, agent_args=before_clock)
+    assert "| 0.98 ± 0.02 | +0.38 |" in attribution_markdown([legacy, paper_bp], [BUTTON])
+    older = {k: v for k, v in args.items() if k not in ("planning_clock", "respect_episode_limit")}
+    unknown = dataclasses.replace(ours, agent_args=older)
+    assert "| not run | -- |" in attribution_markdown([unknown, paper_bp], [BUTTON])
     # Our default BP run by a campaign under its label counts as ours; a labelled run at the
     # paper's settings is a variant, never the paper's cell.
     labelled = dataclasses.replace(ours, method="bp-ours")

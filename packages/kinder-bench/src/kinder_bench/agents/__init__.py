@@ -165,6 +165,27 @@ def args_to_dict(args: Any) -> dict[str, Any]:
     return dataclasses.asdict(args)
 
 
+#: A field's ``metadata`` entry that keeps it out of the run id while it has its default value.
+OMIT_DEFAULT_FROM_RUN_ID = "omit_default_from_run_id"
+
+
+def identity_args(made: Any, args: Mapping[str, Any]) -> dict[str, Any]:
+    """The arguments a run id hashes: every argument, except options whose dataclass field is
+    marked ``metadata={OMIT_DEFAULT_FROM_RUN_ID: True}`` while they keep their default value. An
+    option added to an agent that way leaves the ids of runs that do not use it unchanged, so
+    their run directories still resume."""
+    if not dataclasses.is_dataclass(made):
+        return dict(args)
+    omit = {
+        f.name
+        for f in dataclasses.fields(made)
+        if f.metadata.get(OMIT_DEFAULT_FROM_RUN_ID)
+        and f.default is not dataclasses.MISSING
+        and args.get(f.name) == f.default
+    }
+    return {k: v for k, v in args.items() if k not in omit}
+
+
 def field_docs(args_cls: type[Any]) -> dict[str, str]:
     """The docstrings written under each field of a dataclass (CleanRL style), inherited ones
     included."""
@@ -217,6 +238,7 @@ def make_agent(
 
 __all__ = [
     "AGENTS",
+    "OMIT_DEFAULT_FROM_RUN_ID",
     "Agent",
     "AgentFailure",
     "NoArgs",
@@ -225,6 +247,7 @@ __all__ = [
     "args_to_dict",
     "describe_args",
     "field_docs",
+    "identity_args",
     "make_agent",
     "make_args",
     "register_agent",

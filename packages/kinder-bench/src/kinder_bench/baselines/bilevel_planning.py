@@ -56,6 +56,7 @@ import gymnasium
 import numpy as np
 from numpy.typing import NDArray
 
+from kinder_bench.agents import OMIT_DEFAULT_FROM_RUN_ID
 from kinder_bench.agents.base import Agent, AgentFailure
 from kinder_bench.baselines.bilevel_search import (
     HFF,
@@ -95,7 +96,9 @@ class BilevelPlanningArgs:
     planning_timeout: float = 60.0
     """Seconds for one planning call (abstract search and refinement together), on
     ``planning_clock``; ``inf`` for no time limit."""
-    planning_clock: str = "wall"
+    planning_clock: str = dataclasses.field(
+        default="wall", metadata={OMIT_DEFAULT_FROM_RUN_ID: True}
+    )
     """What ``planning_timeout`` counts: ``wall`` (wall-clock seconds, as the paper) or
     ``process`` (the agent process's CPU seconds). On a machine shared by other jobs a
     wall-clock budget buys less search the busier the machine is; a CPU-time budget buys the

@@ -35,7 +35,14 @@ from typing import Any
 import gymnasium
 import numpy as np
 
-from kinder_bench.agents import Agent, agent_class, args_to_dict, make_agent, make_args
+from kinder_bench.agents import (
+    Agent,
+    agent_class,
+    args_to_dict,
+    identity_args,
+    make_agent,
+    make_args,
+)
 from kinder_bench.evaluation.envs import default_max_steps, make_env, resolve_env_id, short_id
 from kinder_bench.evaluation.executors import execute
 from kinder_bench.evaluation.metrics import aggregate
@@ -163,7 +170,8 @@ def resolve_run(config: RunConfig) -> ResolvedRun:
     """Resolve the env id, the agent's full arguments and the step budget (errors early)."""
     env_id = resolve_env_id(config.env_id)
     cls = agent_class(config.agent)
-    args = args_to_dict(make_args(cls, config.agent_args))
+    made = make_args(cls, config.agent_args)
+    args = args_to_dict(made)
     max_steps = config.max_steps
     if max_steps is None:
         max_steps = PAPER_MAX_STEPS.get(env_id) or default_max_steps(env_id)
@@ -172,7 +180,7 @@ def resolve_run(config: RunConfig) -> ResolvedRun:
             f"A run needs max_steps > 0, episodes > 0 and at least one seed; got {config}"
         )
     return ResolvedRun(
-        run_id=run_id(env_id, config.agent, args, max_steps),
+        run_id=run_id(env_id, config.agent, identity_args(made, args), max_steps),
         env_id=env_id,
         agent=config.agent,
         agent_args=args,

@@ -25,8 +25,9 @@ import re
 from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
-from kinder_bench.agents import AGENTS, agent_class
+from kinder_bench.agents import AGENTS, OMIT_DEFAULT_FROM_RUN_ID, agent_class
 from kinder_bench.evaluation.envs import short_id
 from kinder_bench.evaluation.protocol import PAPER_EPISODES, PAPER_SEEDS
 from kinder_bench.evaluation.summary import CSV_COLUMNS
@@ -211,6 +212,24 @@ def _paper_apart_from_count(r: Result) -> bool:
     return not r.is_variant and not protocol_deviations(whole)
 
 
+def _full_args(r: Result) -> dict[str, Any] | None:
+    """The row's agent arguments, with the defaults of options added since it was recorded
+    filled in where the option's default is the behaviour it had before (fields marked
+    ``OMIT_DEFAULT_FROM_RUN_ID``, which leave run ids unchanged too). None: not recorded."""
+    if r.agent_args is None:
+        return None
+    try:
+        fields = dataclasses.fields(agent_class(r.agent).Args)
+    except (KeyError, ValueError, TypeError):
+        return dict(r.agent_args)
+    added = {
+        f.name: f.default
+        for f in fields
+        if f.metadata.get(OMIT_DEFAULT_FROM_RUN_ID) and f.default is not dataclasses.MISSING
+    }
+    return {**added, **r.agent_args}
+
+
 def _sr(r: Result | None) -> str:
     return "not run" if r is None else fmt_stat(r.success, 2)
 
@@ -237,7 +256,7 @@ def heldout_markdown(results: Sequence[Result], envs: Sequence[str]) -> str:
                 and _current(r)
                 and r.agent == ev.agent
                 and r.method == ev.method
-                and r.agent_args == ev.agent_args
+                and _full_args(r) == _full_args(ev)
                 and _per_seed(r) == _per_seed(ev)
                 and not set(r.seeds or ()) & set(PAPER_SEEDS)
             ]
@@ -280,7 +299,7 @@ def attribution_markdown(results: Sequence[Result], envs: Sequence[str]) -> str:
             and tuple(sorted(r.seeds or ())) == PAPER_SEEDS
         ]
         paper_runs = {_per_seed(r): r for r in runs if _paper_apart_from_count(r)}
-        ours_runs = {_per_seed(r): r for r in runs if r.agent_args == default_args}
+        ours_runs = {_per_seed(r): r for r in runs if _full_args(r) == default_args}
         both = sorted((n for n in paper_runs if n in ours_runs), key=lambda n: n or 0)
         count = both[-1] if both else PAPER_EPISODES
         paper_run, ours = paper_runs.get(count), ours_runs.get(count)
