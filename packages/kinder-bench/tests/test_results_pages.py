@@ -121,6 +121,15 @@ def test_heldout_table_pairs_the_same_run_on_unseen_seeds_and_marks_a_gap() -> N
     table = heldout_markdown([evaluation, first_ten, short], [BUTTON])
     (row,) = [line for line in table.splitlines() if line.startswith("| StickButton2D-b1")]
     assert "| 10 | 0.72 ± 0.10 | 0.70 ± 0.10 | 100–104 | -0.02 |" in row
+    # The first 10 episodes of the 5 x 50 run say so; a 5 x 10 run made beside the held-out
+    # run is listed too.
+    subset = dataclasses.replace(
+        first_ten, command="x; then kinder bench report d --first-episodes 10"
+    )
+    table = heldout_markdown([evaluation, subset, first_ten, short], [BUTTON])
+    rows = [line for line in table.splitlines() if line.startswith("| StickButton2D-b1")]
+    assert len(rows) == 2
+    assert sum("the first 10 episodes of each seed of a longer run" in r for r in rows) == 1
 
 
 def test_attribution_table_sets_the_papers_bp_beside_our_default() -> None:
@@ -143,6 +152,17 @@ def test_attribution_table_sets_the_papers_bp_beside_our_default() -> None:
     )
     assert "| StickButton2D-b1 | 50 | 0.60 ± 0.02 | 0.98 ± 0.02 | +0.38 |" in (
         attribution_markdown([paper_bp, paper_ten, ours_ten, ours], [BUTTON])
+    )
+    # A 5 x 10 run at the paper's settings wins over the first 10 episodes of the 5 x 50 run.
+    subset = dataclasses.replace(
+        paper_ten,
+        success=Stat(0.50, 0.1, 5),
+        command="x; then kinder bench report d --first-episodes 10",
+    )
+    for rows in ([subset, paper_ten, ours_ten], [paper_ten, subset, ours_ten]):
+        assert "| 10 | 0.70 ± 0.10 | 0.90 ± 0.10 | +0.20 |" in attribution_markdown(rows, [BUTTON])
+    assert "| 10 | 0.50 ± 0.10 | 0.90 ± 0.10 | +0.40 |" in (
+        attribution_markdown([subset, ours_ten], [BUTTON])
     )
     # A row recorded before planning_clock existed is our default too (the option's default is
     # the behaviour it had); one recorded before respect_episode_limit existed is not.
