@@ -31,16 +31,16 @@ branch, 3.3 rad from the goal), and bending it further first keeps it on its bra
 at once when a waypoint's grasp cannot be held (IK off by more than :data:`MAX_IK_ERROR`), e.g.
 where the goal's grasp lies beyond the arm's reach.
 
-Measured (``kinder bench run -a bilevel_planning -e LimbRepositioning3D-<variant> --seeds
-1000-1004 --episodes 10``, development seeds): isolated-left-arm and isolated-right-arm 1.00
-(inference 0.9 s and 0.8 s an episode), isolated-right-leg 0.86 (no plan found; on the draw
-traced, the reset's grasp IK had missed by 9 cm, so no arm path held the grasp). At 5 × 2:
-isolated-left-leg 0.00 (the goal configuration's grasp lies 5.3 cm beyond the arm's reach,
-upstream's own IK at its placement: 5.1 cm, and tracking the closest arm configuration leaves
-the limb 0.9 to 3.9 rad from the goal on seeds 1000–1005); human-left-arm,
-wheelchair-left-arm, wheelchair-right-arm and bed-left-arm 1.00; human-right-leg 0.80;
-bed-left-leg 0.00 (its knee starts nearly straight, 0.18 rad, and the tracked arm path takes
-the leg to another branch, 3.3 rad from the goal).
+Measured (BP, ``kinder bench campaign benchmarks/campaigns/extra_families.toml --only
+dev/LimbRepositioning3D-<variant> --out runs/campaign/extra_families_limb2 --workers 1``,
+development seeds 1000–1004 × 10 episodes, 2026-11-27; ``benchmarks/results/extra_families_bp.md``):
+1.00 on the seven arms other than bed-right-arm and on bed-left-leg, bed-right-leg, human-left-leg,
+human-right-leg and wheelchair-right-leg; isolated-right-leg 0.96 (the two failures: the
+reset's grasp IK missed by 12 cm and 7 cm, and no arm path holds the grasp from where the limb
+settles); 0.00 on bed-right-arm, isolated-left-leg and wheelchair-left-leg, whose goal grasps lie
+17.7 cm, 5.3 cm (upstream's own IK: 5.1 cm) and 10.1 cm beyond the arm's reach from the
+variant's robot placement (the grasp's position alone is reachable on the first two, not with
+its orientation), so the skill fails at once.
 
 Differences from upstream: upstream kindergarden 0.2.5 has no LimbRepositioning3D planning
 model; this one is new. Imports kinder_garden3d (the ``[3d]`` extra).
