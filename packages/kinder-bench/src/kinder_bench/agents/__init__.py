@@ -169,21 +169,25 @@ def args_to_dict(args: Any) -> dict[str, Any]:
 OMIT_DEFAULT_FROM_RUN_ID = "omit_default_from_run_id"
 
 
-def identity_args(made: Any, args: Mapping[str, Any]) -> dict[str, Any]:
-    """The arguments a run id hashes: every argument, except options whose dataclass field is
-    marked ``metadata={OMIT_DEFAULT_FROM_RUN_ID: True}`` while they keep their default value. An
-    option added to an agent that way leaves the ids of runs that do not use it unchanged, so
-    their run directories still resume."""
-    if not dataclasses.is_dataclass(made):
-        return dict(args)
-    omit = {
-        f.name
-        for f in dataclasses.fields(made)
-        if f.metadata.get(OMIT_DEFAULT_FROM_RUN_ID)
-        and f.default is not dataclasses.MISSING
-        and args.get(f.name) == f.default
+def run_id_optional_defaults(args_cls: Any) -> dict[str, Any]:
+    """The options of an agent's ``Args`` marked ``metadata={OMIT_DEFAULT_FROM_RUN_ID: True}``,
+    with their defaults: options added after runs were recorded, whose default is the behaviour
+    those runs had."""
+    return {
+        f.name: f.default
+        for f in dataclasses.fields(args_cls)
+        if f.metadata.get(OMIT_DEFAULT_FROM_RUN_ID) and f.default is not dataclasses.MISSING
     }
-    return {k: v for k, v in args.items() if k not in omit}
+
+
+def identity_args(args: Any) -> dict[str, Any]:
+    """The arguments a run id hashes (``args``: an agent's ``Args``): every argument, except
+    :func:`run_id_optional_defaults` options while they keep their default. An option added
+    that way leaves the ids of runs that do not use it unchanged, so their run directories still
+    resume."""
+    values = args_to_dict(args)
+    optional = run_id_optional_defaults(args)
+    return {k: v for k, v in values.items() if k not in optional or v != optional[k]}
 
 
 def field_docs(args_cls: type[Any]) -> dict[str, str]:
@@ -251,5 +255,6 @@ __all__ = [
     "make_agent",
     "make_args",
     "register_agent",
+    "run_id_optional_defaults",
     "unavailable_reason",
 ]

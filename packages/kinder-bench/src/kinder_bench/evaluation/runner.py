@@ -180,7 +180,7 @@ def resolve_run(config: RunConfig) -> ResolvedRun:
             f"A run needs max_steps > 0, episodes > 0 and at least one seed; got {config}"
         )
     return ResolvedRun(
-        run_id=run_id(env_id, config.agent, identity_args(made, args), max_steps),
+        run_id=run_id(env_id, config.agent, identity_args(made), max_steps),
         env_id=env_id,
         agent=config.agent,
         agent_args=args,

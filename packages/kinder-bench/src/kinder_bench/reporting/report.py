@@ -154,8 +154,9 @@ def write_report(
         sources = " ".join(str(d) for d in run_dirs)
         subset = f"kinder bench report {sources} --first-episodes {first_episodes} --out {out}"
         commands = {
-            run_id: f"{command}; then {subset}" for run_id, command in commands.items()
-        } or {s.run_id: subset for s in summaries}
+            s.run_id: f"{commands[s.run_id]}; then {subset}" if s.run_id in commands else subset
+            for s in summaries
+        }
     trainings = run_trainings(run_dirs)
     md = markdown_table(summaries)
     paths = {"table": out / TABLE_FILE, "csv": out / CSV_FILE}

@@ -27,7 +27,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from kinder_bench.agents import AGENTS, OMIT_DEFAULT_FROM_RUN_ID, agent_class
+from kinder_bench.agents import AGENTS, agent_class, run_id_optional_defaults
 from kinder_bench.evaluation.envs import short_id
 from kinder_bench.evaluation.protocol import PAPER_EPISODES, PAPER_SEEDS
 from kinder_bench.evaluation.summary import CSV_COLUMNS
@@ -217,19 +217,14 @@ def _paper_apart_from_count(r: Result) -> bool:
 
 def _full_args(r: Result) -> dict[str, Any] | None:
     """The row's agent arguments, with the defaults of options added since it was recorded
-    filled in where the option's default is the behaviour it had before (fields marked
-    ``OMIT_DEFAULT_FROM_RUN_ID``, which leave run ids unchanged too). None: not recorded."""
+    filled in where the option's default is the behaviour it had before
+    (:func:`~kinder_bench.agents.run_id_optional_defaults`). None: not recorded."""
     if r.agent_args is None:
         return None
     try:
-        fields = dataclasses.fields(agent_class(r.agent).Args)
+        added = run_id_optional_defaults(agent_class(r.agent).Args)
     except (KeyError, ValueError, TypeError):
         return dict(r.agent_args)
-    added = {
-        f.name: f.default
-        for f in fields
-        if f.metadata.get(OMIT_DEFAULT_FROM_RUN_ID) and f.default is not dataclasses.MISSING
-    }
     return {**added, **r.agent_args}
 
 
