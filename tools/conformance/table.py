@@ -140,14 +140,6 @@ UNCOVERED: dict[str, str] = {
 #: Registered ids whose fixture is recorded but which do not conform yet, and how (no test
 #: hides them: the row says "differs").
 KNOWN_DIFFERENCES: dict[str, str] = {
-    **{
-        f"kinder/LimbRepositioning3D-wheelchair-{side}-leg-v0": "our seated hip draws are about "
-        "0.05 rad more flexed than upstream's and the abduction is shifted as much (the rejection "
-        "of draws that press the leg into the chair and body depends on the shapes); one-step "
-        "transitions within the family's bounds. Fixture recorded; not in the test "
-        "(test_conformance_limb3d.py's docstring)"
-        for side in ("left", "right")
-    },
     "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bins-v0": "our dropped "
     "blocks bounce further than upstream's and knock a bin in 6 of 60 seeds (upstream's never, "
     "in 40); the pooled blocks' wy fails the KS test (0.099 > 0.089). Fixture recorded, no test",

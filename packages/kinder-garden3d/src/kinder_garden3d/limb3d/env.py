@@ -85,6 +85,10 @@ class LimbVariant:
         camera: The orbit camera's (target, distance, yaw, pitch).
         ik_start: An arm configuration the grasp IK tries first (``None``: none): upstream's
             settled arm for the variant (measured), so that the solve lands on its branch.
+        seated_shapes: Whether the person's limbs carry the seated shapes (the thighs'
+            undersides and the fuller hands of ``limbs.limb_description(seated=True)``), which
+            the reset's clearance to the seat and the resting hands depends on (wheelchair
+            legs).
     """
 
     scene: str
@@ -102,6 +106,7 @@ class LimbVariant:
     furniture_pos: Vec3 = (0.0, 0.0, 0.0)
     camera: tuple[Vec3, float, float, float] = ((0.730, -0.396, 0.270), 2.0, 140.0, -20.0)
     ik_start: tuple[float, ...] | None = None
+    seated_shapes: bool = False
 
 
 # Upstream's isolated tasks: one nominal right-arm start and goal, mirrored or knee-flipped for
@@ -286,6 +291,7 @@ for _limb, (_init, _goal, _base, _z) in _WHEELCHAIR_TASKS.items():
         furniture="wheelchair",
         camera=(_WHEELCHAIR_TORSO[0], 3.0, 320.0, -30.0),
         ik_start=_WHEELCHAIR_IK_START[_limb],
+        seated_shapes=_limb.endswith("leg"),
     )
 
 # Upstream's bed scene: the bed stands 0.35 m up; the person lies on it face up (the torso turned
@@ -586,7 +592,12 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
     The wheelchair, bed and room are boxes at the extents of upstream's meshes (its collision
     meshes are convex pieces, which the boxes cover but do not follow), so the clearances the
     reset compares differ by millimetres: upstream draws the bed's leg abduction within ±0.010
-    rad of the start, these ids within −0.025 to +0.005 rad. Upstream enables contact between
+    rad of the start, these ids within −0.025 to +0.005 rad. In the wheelchair-leg variants the
+    person's thighs carry an underside capsule and the hands are capsules, fitted to upstream's
+    mesh hulls (`limbs.py`), so that the seat under the buttock and the resting hands are the
+    nearest pieces the reset's clearance compares, as upstream's (without them an armrest corner
+    and a forearm were, and the hip draws were 0.036 rad more flexed); they serve the distance
+    queries only, the thigh keeps the plain limb's inertia. Upstream enables contact between
     the limb and the furniture (friction 0.5, zero contact stiffness and damping); here nothing
     collides (from seed 0, 20 steps of constant torque, upstream's own runs with that contact
     switched off were identical for wheelchair-left-arm, wheelchair-left-leg, bed-left-arm and
@@ -637,12 +648,14 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         pb.setGravity(0.0, 0.0, 0.0, physicsClientId=cid)
         pb.setPhysicsEngineParameter(fixedTimeStep=self.config.timestep, physicsClientId=cid)
         self._limb_body = pb.loadURDF(
-            str(limb_urdf_path(v.limb)),
+            str(limb_urdf_path(v.limb, seated=v.seated_shapes)),
             basePosition=list(v.limb_base_pos),
             baseOrientation=pb.getQuaternionFromEuler(v.limb_base_rpy),
             useFixedBase=True,
             physicsClientId=cid,
         )
+        if v.seated_shapes:
+            self._keep_plain_inertia(cid)
         names: dict[str, int] = {}
         for j in range(pb.getNumJoints(self._limb_body, physicsClientId=cid)):
             info = pb.getJointInfo(self._limb_body, j, physicsClientId=cid)
@@ -691,6 +704,20 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
         self._generation = scene.generation
         return cid
 
+    def _keep_plain_inertia(self, cid: int) -> None:
+        """Give the limb's links the inertias of the plain limb. pybullet derives a link's
+        inertia from the bounding box of its collision shapes, and the seated shapes are there
+        for the reset's distance queries only, so the dynamics stay those of the plain limb."""
+        plain = pb.loadURDF(
+            str(limb_urdf_path(self.variant.limb)), useFixedBase=True, physicsClientId=cid
+        )
+        for link in range(pb.getNumJoints(plain, physicsClientId=cid)):
+            inertia = pb.getDynamicsInfo(plain, link, physicsClientId=cid)[2]
+            pb.changeDynamics(
+                self._limb_body, link, localInertiaDiagonal=inertia, physicsClientId=cid
+            )
+        pb.removeBody(plain, physicsClientId=cid)
+
     def torso_pose(self) -> tuple[Vec3, Quat]:
         """The torso's world pose: where the scene seats or lays the person, else (human
         scene) behind the limb's anchor by the limb's attachment offset."""
@@ -734,7 +761,11 @@ class LimbRepositioning3DEnv(ObjectCentricEnv):
                 continue
             pos, quat = pb.multiplyTransforms(torso_p, torso_q, offset, [0.0, 0.0, 0.0, 1.0])
             body = pb.loadURDF(
-                str(limb_urdf_path(other)), pos, quat, useFixedBase=True, physicsClientId=cid
+                str(limb_urdf_path(other, seated=self.variant.seated_shapes)),
+                pos,
+                quat,
+                useFixedBase=True,
+                physicsClientId=cid,
             )
             self._resting_limbs.append((body, self.variant.resting[LIMB_NAMES.index(other)]))
             bodies.append(body)

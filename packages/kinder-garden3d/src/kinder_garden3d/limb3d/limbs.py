@@ -16,6 +16,16 @@ Joint limits are not simulated (the joints are continuous, as upstream): they bo
 perturbation a reset draws, from the AAOS normal adult ranges of motion (degrees, upstream's
 mapping onto joint coordinates).
 
+The seated person of the wheelchair-leg scenes (``seated=True``) has two further shapes where
+upstream's mesh limbs reach well beyond these primitives and the reset's clearance to the chair
+and the resting hands depends on it: the underside of the thigh (upstream's thigh hull reaches
+11.3 cm below the hip joint, under the buttock, where our 7 cm capsule leaves 6.7 cm to the
+seat) and the hand (upstream's hand hull is 19 cm long and 8 to 10 cm thick, our box 15 by 3
+cm). Both are capsules fitted to upstream's convex hulls by least squares on their support
+functions (the thigh's over the directions within 30 degrees of straight down at the seated
+start, the hand's over all directions). The thigh shape is for distance queries: the env keeps
+the thigh's inertia that of the plain limb.
+
 A limb is described as a :class:`~kinder_garden3d.robot.description.RobotDescription` and loaded
 into pybullet through the robot package's URDF writer.
 """
@@ -160,6 +170,15 @@ LIMBS: dict[str, LimbSpec] = {
     ),
 }
 
+#: A capsule by its segment's two end points (link frame) and its radius.
+Capsule = tuple[Vec3, Vec3, float]
+#: The seated thigh's underside, in the left thigh's frame (the right leg's is mirrored in x): at
+#: the seated start it ends 2.4 cm above the wheelchair's seat, 1 cm in front of the hip, and
+#: tapers toward the knee (upstream's thigh: 2.6 cm, 1.1 cm in front).
+SEATED_THIGH_UNDERSIDE: Capsule = ((0.0208, 0.0625, -0.0098), (-0.0043, 0.0118, -0.4077), 0.05)
+#: The seated person's hand, in the right hand's frame (the left hand's is mirrored in y).
+SEATED_HAND: Capsule = ((0.0179, 0.0013, -0.0339), (-0.008, 0.0251, -0.1419), 0.0391)
+
 #: The joint names in chain order (the six observed joints).
 JOINT_NAMES = ("ball_x", "ball_y", "ball_z", "hinge", "distal_x", "distal_y")
 #: The link whose frame carries the grasp frame.
@@ -182,9 +201,27 @@ def _box_inertial(mass: float, center: Vec3, half: Vec3) -> Inertial:
     return Inertial(mass, center, diag)
 
 
-def limb_description(spec: LimbSpec, rgba: Rgba = SKIN) -> RobotDescription:
+def _capsule_geom(name: str, capsule: Capsule, mirror_axis: int | None, rgba: Rgba) -> Geom:
+    """A capsule geom between two points, optionally mirrored across the plane normal to axis
+    ``mirror_axis`` (0: x, 1: y)."""
+    p1, p2, radius = capsule
+    a, b = list(p1), list(p2)
+    if mirror_axis is not None:
+        a[mirror_axis], b[mirror_axis] = -a[mirror_axis], -b[mirror_axis]
+    d = [bi - ai for ai, bi in zip(a, b, strict=True)]
+    length = math.sqrt(sum(v * v for v in d))
+    dx, dy, dz = (v / length for v in d)
+    # The rotation Ry(pitch) · Rx(roll) takes the capsule's z axis onto d.
+    rpy = (math.atan2(-dy, math.hypot(dx, dz)), math.atan2(dx, dz), 0.0)
+    center = ((a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0, (a[2] + b[2]) / 2.0)
+    return Geom(name, "capsule", (radius, length / 2.0), center, rpy, rgba=rgba)
+
+
+def limb_description(spec: LimbSpec, rgba: Rgba = SKIN, seated: bool = False) -> RobotDescription:
     """The limb as a fixed-base chain: anchor → ball_x → ball_y → ball_z (upper segment) →
-    hinge (lower segment) → distal_x → distal_y (hand or foot)."""
+    hinge (lower segment) → distal_x → distal_y (hand or foot). ``seated``: the seated
+    person's shapes (module docstring): a leg gains :data:`SEATED_THIGH_UNDERSIDE` on its upper
+    segment, an arm's hand is :data:`SEATED_HAND` instead of the box."""
     a = spec.axes
     spacer = Inertial(_SPACER_MASS, (0.0, 0.0, 0.0), _SPACER_INERTIA)
     m_up, m_low, m_end = spec.masses
@@ -200,6 +237,14 @@ def limb_description(spec: LimbSpec, rgba: Rgba = SKIN) -> RobotDescription:
         rgba=rgba,
     )
     end_geom = Geom("end", "box", spec.end_half, spec.end_center, rgba=rgba)
+    upper_geoms: tuple[Geom, ...] = (upper_geom,)
+    if seated and spec.is_arm:
+        left = spec.name.startswith("left")
+        end_geom = _capsule_geom("end", SEATED_HAND, 1 if left else None, rgba)
+    elif seated:
+        right = spec.name.startswith("right")
+        underside = _capsule_geom("underside", SEATED_THIGH_UNDERSIDE, 0 if right else None, rgba)
+        upper_geoms = (upper_geom, underside)
     links = (
         Link("anchor", None, None, inertial=Inertial(0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))),
         Link("ball_1", "anchor", Joint("ball_x", "continuous", a[0]), inertial=spacer),
@@ -209,7 +254,7 @@ def limb_description(spec: LimbSpec, rgba: Rgba = SKIN) -> RobotDescription:
             "ball_2",
             Joint("ball_z", "continuous", a[2]),
             inertial=_capsule_inertial(m_up, spec.upper_radius, up_len),
-            geoms=(upper_geom,),
+            geoms=upper_geoms,
         ),
         Link(
             "lower",
@@ -236,7 +281,7 @@ def limb_description(spec: LimbSpec, rgba: Rgba = SKIN) -> RobotDescription:
         ),
     )
     return RobotDescription(
-        name=f"human_{spec.name.replace('-', '_')}",
+        name=f"human_{spec.name.replace('-', '_')}{'_seated' if seated else ''}",
         links=links,
         frames=(),
         cameras=(),
@@ -247,19 +292,20 @@ def limb_description(spec: LimbSpec, rgba: Rgba = SKIN) -> RobotDescription:
 
 
 @cache
-def _limb_urdf_text(name: str, rgba: Rgba) -> str:
-    return to_urdf(limb_description(LIMBS[name], rgba))
+def _limb_urdf_text(name: str, rgba: Rgba, seated: bool) -> str:
+    return to_urdf(limb_description(LIMBS[name], rgba, seated))
 
 
-def limb_urdf_path(name: str, rgba: Rgba = SKIN) -> Path:
-    """Write limb ``name``'s URDF to a content-addressed temp file and return its path.
+def limb_urdf_path(name: str, rgba: Rgba = SKIN, seated: bool = False) -> Path:
+    """Write limb ``name``'s URDF (``seated``: with the seated person's shapes) to a
+    content-addressed temp file and return its path.
 
     pybullet loads URDFs only from disk; the name carries a hash of the content and the file is
     written atomically, so concurrent processes never read a partial or stale file.
     """
     if name not in LIMBS:
         raise ValueError(f"Unknown limb {name!r}; expected one of {list(LIMBS)}")
-    text = _limb_urdf_text(name, rgba)
+    text = _limb_urdf_text(name, rgba, seated)
     digest = hashlib.sha256(text.encode()).hexdigest()[:16]
     directory = Path(tempfile.gettempdir()) / "kinder_garden3d"
     path = directory / f"limb_{name}_{digest}.urdf"
