@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -21,8 +22,11 @@ from kinder_bench.evaluation.runner import (
     RunConfig,
     agent_seed,
     episode_seeds,
+    resolve_run,
     run_benchmark,
 )
+from kinder_bench.evaluation.summary import CSV_FILE
+from kinder_bench.reporting.paper import paper_settings, protocol_deviations, results_from_csv
 
 IMPORTS = ("kinder_bench_toy",)
 
@@ -247,3 +251,41 @@ def test_default_step_budget_follows_the_paper(toy_id: str) -> None:
     registered = default_max_steps("kinder/Motion2D-p1-v0")
     assert resolve_run(RunConfig("Motion2D-p1")).max_steps == registered
     assert resolve_run(RunConfig(toy_id, max_steps=7)).max_steps == 7
+
+
+def test_a_run_under_noise_is_seeded_recorded_and_keeps_noise_free_ids(
+    toy_id: str, tmp_path: Path
+) -> None:
+    clean = RunConfig(toy_id, "mpc", {"horizon": 15, "num_rollouts": 5}, (0,), 3)
+    noisy = dataclasses.replace(clean, obs_noise=0.05, action_noise=0.02)
+    a = _bench([clean, noisy], tmp_path / "a")
+    b = _bench([noisy], tmp_path / "b")
+    by_noise = {(r["obs_noise"], r["action_noise"]): r for r in a.records}
+    assert set(by_noise) == {(0.0, 0.0), (0.05, 0.02)}
+    assert by_noise[(0.0, 0.0)]["run_id"] != by_noise[(0.05, 0.02)]["run_id"]
+    # The same seed gives the same noisy episode in another run directory (another process).
+    assert _strip(b.records) == _strip([r for r in a.records if r["obs_noise"]])
+    # The noise changes the episodes (same instances, different trajectories).
+    clean_rewards = [r["reward"] for r in a.records if not r["obs_noise"]]
+    assert clean_rewards != [r["reward"] for r in b.records]
+    # The summary rows say so, and the report names the run by its noise.
+    row = next(r for r in results_from_csv(tmp_path / "a" / CSV_FILE) if r.obs_noise)
+    assert (row.obs_noise, row.action_noise) == (0.05, 0.02)
+    assert {"obs noise 0.05", "action noise 0.02"} <= set(protocol_deviations(row))
+    # Noise-free runs keep the ids they had before noise existed (BP at the paper's settings
+    # on Motion2D-p0, as in benchmarks/results/bp_conforming_summary.csv).
+    paper_bp = {
+        k: v
+        for k, v in paper_settings("bilevel_planning", "kinder/Motion2D-p0-v0").items()
+        if k not in ("max_steps", "training")
+    }
+    assert resolve_run(RunConfig("Motion2D-p0", "bilevel_planning", paper_bp)).run_id == (
+        "3182dd1fd35c"
+    )
+
+
+@pytest.mark.parametrize("std", [-0.1, float("nan"), float("inf")])
+def test_bad_noise_is_refused_before_running(toy_id: str, tmp_path: Path, std: float) -> None:
+    with pytest.raises(ValueError, match=r"obs_noise .*expected a finite number >= 0"):
+        _bench([RunConfig(toy_id, "random", {}, (0,), 1, obs_noise=std)], tmp_path)
+    assert not (tmp_path / RESULTS_FILE).exists()

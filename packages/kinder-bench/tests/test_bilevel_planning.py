@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Sequence
@@ -261,6 +262,38 @@ def test_agent_on_toy_env_replans_after_divergence() -> None:
             break
     assert terminated
     assert agent.replans == 1
+    assert agent.episode_info() == {"planning_calls": 2, "replans": 1, "replans_ran_out": 0}
+
+
+def test_agent_without_monitoring_replans_only_when_its_plan_runs_out() -> None:
+    """With ``replan_on_divergence=False`` a disturbed plan runs to its end; the agent plans
+    again only then (upstream's agent fails there instead: ``max_replans=0``), and the
+    episode's record says why it planned again."""
+    for budget in (5, 0):
+        env = BoxObservation(ToyPlaceEnv())
+        use_model(env.unwrapped, make_toy_model(env.unwrapped))  # type: ignore[arg-type]
+        args = {"replan_on_divergence": False, "max_replans": budget}
+        agent = make_agent(AGENT, env, args, seed=0)
+        obs, info = env.reset(seed=0)
+        agent.reset(obs, info)
+        assert isinstance(agent, BilevelPlanningAgent) and agent.plan_ is not None
+        length = len(agent.plan_.actions)
+        obs, *_ = env.step(agent.act(obs))
+        state = env.unwrapped.get_state()  # type: ignore[attr-defined]
+        state.set(env.unwrapped.robot, "x", 0.0)  # type: ignore[attr-defined]
+        env.unwrapped.set_state(state)  # type: ignore[attr-defined]
+        obs = env.unwrapped.box_space.vectorize(state)  # type: ignore[attr-defined]
+        for _ in range(length - 1):  # the rest of the plan, open loop
+            obs, *_ = env.step(agent.act(obs))
+        assert agent.episode_info() == {"planning_calls": 1, "replans": 0, "replans_ran_out": 0}
+        if budget == 0:
+            with pytest.raises(AgentFailure, match="re-planning budget"):
+                agent.act(obs)
+            continue
+        # The toy's model finds no plan from where the disturbed plan left it.
+        with contextlib.suppress(AgentFailure):
+            agent.act(obs)
+        assert agent.episode_info() == {"planning_calls": 2, "replans": 1, "replans_ran_out": 1}
 
 
 def test_agent_without_replanning_budget_fails_on_divergence() -> None:

@@ -131,11 +131,31 @@ def test_paper_settings_fill_each_envs_arguments_and_budget() -> None:
         ({"cells": [{"agent": "mpc", "envs": ["Motion2D-p0"], "seeds": "a-b"}]}, "seeds"),
         ({"cells": [{"agent": "mbrl", "envs": ["Motion2D-p0"], "train": {"args": {}}}]},
          "method"),
+        ({"cells": [{"agent": "mpc", "envs": ["Motion2D-p0"], "obs_noise": -0.1}]},
+         "obs_noise -0.1: expected a finite number >= 0"),
+        ({"cells": [{"agent": "mpc", "envs": ["Motion2D-p0"], "action_noise": "lots"}]},
+         "action_noise 'lots': expected a number"),
     ],
 )  # fmt: skip
 def test_bad_campaign_files_say_what_is_wrong(data: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         parse_campaign(data, "bad.toml")
+
+
+def test_a_cells_noise_reaches_its_run() -> None:
+    campaign = parse_campaign(
+        {"cells": [{"agent": "mpc", "envs": ["Motion2D-p0"], "obs_noise": 0.1}]}, "t"
+    )
+    (cell,) = campaign.cells
+    run = cell.run_config(Path("out"))
+    assert (run.obs_noise, run.action_noise) == (0.1, 0.0)
+
+
+def test_the_committed_noise_campaign_runs_bp_under_each_noise_of_the_paper() -> None:
+    campaign = load_campaign(ROOT / "benchmarks" / "campaigns" / "noise.toml")
+    levels = {(c.obs_noise, c.action_noise) for c in campaign.cells}
+    assert levels == {(0.01, 0.0), (0.1, 0.0), (0.0, 0.01), (0.0, 0.1)}
+    assert {c.agent for c in campaign.cells} == {"bilevel_planning"}
 
 
 def test_the_cli_lists_a_campaign_without_running_it(tmp_path: Path) -> None:

@@ -15,6 +15,8 @@ from kinder_bench.reporting.paper import Result, results_from_csv
 from kinder_bench.reporting.results_doc import (
     attribution_markdown,
     heldout_markdown,
+    load_paper_noise,
+    noise_markdown,
     summary_files,
     unbacked_quotes,
 )
@@ -183,6 +185,53 @@ def test_attribution_table_sets_the_papers_bp_beside_our_default() -> None:
     assert "| StickButton2D-b1 | 50 | not run | 0.98 ± 0.02 | -- |" in attribution_markdown(
         [labelled, labelled_paper], [BUTTON]
     )
+
+
+def test_noise_table_sets_bp_under_noise_beside_the_papers() -> None:
+    paper_bp = _bp((0, 1, 2, 3, 4), 1.00, **PAPER_BP, search="astar")
+    open_loop = dataclasses.replace(
+        paper_bp, agent_args={**(paper_bp.agent_args or {}), "max_replans": 0}
+    )
+    obs = dataclasses.replace(open_loop, success=Stat(0.30, 0.05, 5), obs_noise=0.01)
+    act = dataclasses.replace(open_loop, success=Stat(0.20, 0.05, 5), action_noise=0.1)
+    replan = dataclasses.replace(
+        paper_bp, method="bp-paper-replan", success=Stat(0.40, 0.05, 5), obs_noise=0.01
+    )
+    ours = dataclasses.replace(_bp((0, 1, 2, 3, 4), 0.90), method="bp-ours", obs_noise=0.01)
+    both = dataclasses.replace(obs, obs_noise=0.1, action_noise=0.1)  # in no column
+    short = dataclasses.replace(obs, obs_noise=0.1, episodes=50)  # 5 x 10: not the protocol
+    labelled = dataclasses.replace(act, method="bp-x", action_noise=0.01)  # not the paper's BP
+    table = noise_markdown([paper_bp, obs, act, replan, ours, both, short, labelled])
+    rows = {
+        r.split(" | ")[1]: r.split(" | ")[2:]
+        for r in table.splitlines()
+        if r.startswith("| StickButton2D-b1")
+    }
+    assert rows["paper's BP, open loop (paper)"] == [
+        "1.00 ± 0.02 (1.00)",
+        "0.30 ± 0.05 (0.22)",
+        "not run (0.06)",
+        "1.00 ± 0.02 (1.00)",
+        "not run (0.41)",
+        "0.20 ± 0.05 (0.05) |",
+    ]
+    # Without noise the paper cell (recorded with max_replans=5) stands for both settings.
+    assert rows["paper's settings, re-planning when the plan runs out"][:3] == [
+        "1.00 ± 0.02",
+        "0.40 ± 0.05",
+        "not run",
+    ]
+    assert rows["our default"][:2] == ["not run", "0.90 ± 0.02"]
+    # A run under noise never fills the paper's BP cell, nor the held-out or attribution
+    # tables (it is a variant named by its noise).
+    assert "noise" not in heldout_markdown([obs], [BUTTON]) and "not run" in heldout_markdown(
+        [obs, dataclasses.replace(obs, seeds=(100, 101, 102, 103, 104))], [BUTTON]
+    )
+    assert "| StickButton2D-b1 | 50 | not run |" in attribution_markdown([obs, ours], [BUTTON])
+    # The paper's figures load, and a malformed file says which row is wrong.
+    assert load_paper_noise()[("kinder/Motion2D-p0-v0", "action", 0.01)] == "0.13"
+    with pytest.raises(ValueError, match="row 2"):
+        load_paper_noise("env_id,noise,std,sr\nkinder/Motion2D-p0-v0,sound,0.1,0.5\n")
 
 
 def test_every_results_page_says_when_it_was_measured() -> None:

@@ -25,6 +25,17 @@ def test_noisy_observation_is_seeded_and_works_on_boxes_and_states(toy_id: str) 
         NoisyObservation(clean, -1.0)
 
 
+def test_noisy_observation_stays_in_the_observation_space(toy_id: str) -> None:
+    """Like upstream's wrapper: noise far larger than the space is clipped to its bounds."""
+    env = NoisyObservation(kinder_core.make(toy_id), 100.0)
+    space = env.observation_space
+    obs, _ = env.reset(seed=3)
+    for _ in range(3):
+        assert space.contains(obs)
+        assert np.any(obs == space.low) or np.any(obs == space.high)
+        obs, *_ = env.step(env.action_space.sample())
+
+
 def test_noisy_action_clips_to_bounds_and_is_seeded() -> None:
     env = ToyReach()
     noisy = NoisyAction(env, [1.0, 0.0])

@@ -21,6 +21,7 @@ on a list of envs (``"paper"``: the paper's eight), so a method × env grid is o
     env_args = {}                 # ... and per env: { "Motion2D-p0" = { horizon = 50 } }
     # label = "mbrl-5x10"         # a name other than the agent's marks a variant
     # seeds, episodes, max_steps  # override the campaign's
+    # obs_noise, action_noise     # Gaussian noise stds on the env (the paper's noise table)
 
     [cells.train]                 # optional: train before evaluating
     method = "mbrl"               # `kinder train mbrl`
@@ -59,7 +60,7 @@ from kinder_bench.agents import Agent, agent_class, make_args, parse_value
 from kinder_bench.evaluation.envs import resolve_env_id, short_id
 from kinder_bench.evaluation.protocol import PAPER_ENVS
 from kinder_bench.evaluation.results import load_records, write_json
-from kinder_bench.evaluation.runner import RunConfig, resolve_run, run_benchmark
+from kinder_bench.evaluation.runner import RunConfig, check_noise, resolve_run, run_benchmark
 from kinder_bench.reporting.paper import paper_settings
 
 TRAIN_MARKER = "campaign_train.json"
@@ -67,7 +68,7 @@ STATUS_FILE = "campaign.json"
 _RUN_SETTINGS = ("max_steps", "training")
 _CAMPAIGN_KEYS = {"name", "out", "seeds", "episodes", "imports"}
 _CELL_KEYS = {"name", "agent", "envs", "paper_settings", "args", "env_args", "label", "seeds",
-              "episodes", "max_steps", "train"}  # fmt: skip
+              "episodes", "max_steps", "train", "obs_noise", "action_noise"}  # fmt: skip
 _TRAIN_KEYS = {"method", "args", "per_seed", "checkpoint_arg", "budget"}
 
 
@@ -95,6 +96,8 @@ class Cell:
     max_steps: int | None
     label: str | None
     train: TrainSpec | None
+    obs_noise: float = 0.0
+    action_noise: float = 0.0
 
     @property
     def key(self) -> str:
@@ -114,7 +117,8 @@ class Cell:
             args[self.train.checkpoint_arg] = str(self.train_dir(out, seed))
         training = self.train.budget if self.train is not None else ""
         return RunConfig(self.env_id, self.agent, args, self.seeds, self.episodes,
-                         self.max_steps, self.label, training)  # fmt: skip
+                         self.max_steps, self.label, training,
+                         obs_noise=self.obs_noise, action_noise=self.action_noise)  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)
@@ -213,6 +217,15 @@ def _cells(raw: Mapping[str, Any], defaults: Mapping[str, Any], where: str) -> l
     if not isinstance(episodes, int) or episodes < 1:
         raise ValueError(f"{where}: episodes {episodes!r}: expected an integer >= 1")
     train = _train_spec(raw["train"], f"{where}.train") if "train" in raw else None
+    noise = {}
+    for key in ("obs_noise", "action_noise"):
+        value = raw.get(key, 0.0)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(f"{where}: {key} {value!r}: expected a number >= 0 (a Gaussian std)")
+        try:
+            noise[key] = check_noise(key, value)
+        except ValueError as e:
+            raise ValueError(f"{where}: {e}") from None
     common = _table(raw.get("args", {}), f"{where}.args")
     per_env = {
         resolve_env_id(e): _table(a, f"{where}.env_args.{e}")
@@ -241,7 +254,7 @@ def _cells(raw: Mapping[str, Any], defaults: Mapping[str, Any], where: str) -> l
             raise ValueError(f"{where}: max_steps {max_steps!r}: expected an integer >= 1")
         label = raw.get("label")
         out.append(Cell(name, agent, env_id, args, seeds, episodes, max_steps,
-                        str(label) if label else None, train))  # fmt: skip
+                        str(label) if label else None, train, **noise))  # fmt: skip
     return out
 
 
@@ -381,7 +394,8 @@ def run_campaign(
         entry: dict[str, Any] = {"cell": cell.name, "env_id": cell.env_id, "agent": cell.agent,
                                  "label": cell.label, "args": dict(cell.args),
                                  "seeds": list(cell.seeds), "episodes": cell.episodes,
-                                 "max_steps": cell.max_steps}  # fmt: skip
+                                 "max_steps": cell.max_steps, "obs_noise": cell.obs_noise,
+                                 "action_noise": cell.action_noise}  # fmt: skip
         if cell.train is not None:
             try:
                 entry["train"] = _train(cell, root, train_fn, log)

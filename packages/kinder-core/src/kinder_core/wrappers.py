@@ -69,9 +69,11 @@ def _derive_rng(env: gymnasium.Env[Any, Any], seed: int | None, tag: int) -> np.
 class NoisyObservation(gymnasium.Wrapper[Any, Any, Any, Any]):
     """Adds Gaussian noise (std ``std``, scalar or per-dimension) to every observation.
 
-    Works on Box vectors and on object-centric states (noise on every feature). The noise RNG is
-    seeded from ``reset(seed=...)`` (so a seeded episode is reproducible), or drawn once from the
-    env's RNG when no seed was ever given.
+    Works on Box vectors and on object-centric states (noise on every feature). A noisy Box
+    vector is clipped to the observation space's bounds, as upstream's ``NoisyObservation`` does
+    (a feature at its bound, a radius of 0 say, stays inside the space). The noise RNG is seeded
+    from ``reset(seed=...)`` (so a seeded episode is reproducible), or drawn once from the env's
+    RNG when no seed was ever given.
     """
 
     _TAG = 0x6F6273  # distinguishes this wrapper's stream from NoisyAction's
@@ -91,6 +93,9 @@ class NoisyObservation(gymnasium.Wrapper[Any, Any, Any, Any]):
             return out
         arr = np.asarray(obs)
         noisy = arr + self._rng.normal(0.0, 1.0, arr.shape) * self.std
+        space = self.observation_space
+        if isinstance(space, spaces.Box) and space.shape == arr.shape:
+            noisy = np.clip(noisy, space.low, space.high)
         return noisy.astype(arr.dtype, copy=False)
 
     def reset(

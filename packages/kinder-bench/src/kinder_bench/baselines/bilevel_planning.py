@@ -422,12 +422,16 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
         self._t = 0
         self._steps_taken = 0
         self.replans = 0
+        self.replans_ran_out = 0
+        """Re-plans because the plan's actions ran out before the episode ended (the rest of
+        :attr:`replans` were for a diverged state)."""
         self.history: list[PlanningStats] = []
         self.last_skill: ExecutedSkill | None = None
         """The skill that produced the latest action :meth:`act` returned."""
 
     def reset(self, obs: Any, info: dict[str, Any]) -> None:
         self.replans = 0
+        self.replans_ran_out = 0
         self.history = []
         self.last_skill = None
         self._plan = None
@@ -435,8 +439,11 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
         self._steps_taken = 0
         self._replan(self.observed_state(obs), first=True)
 
-    def _replan(self, state: ObjectCentricState, first: bool = False) -> None:
-        """Plan from ``state``; raise AgentFailure (and remember why) when that fails."""
+    def _replan(
+        self, state: ObjectCentricState, first: bool = False, ran_out: bool = False
+    ) -> None:
+        """Plan from ``state`` (``ran_out``: because the plan's actions ran out); raise
+        AgentFailure (and remember why) when that fails."""
         if not first:
             if self.replans >= self.args.max_replans:
                 self._failure = (
@@ -445,6 +452,7 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
                 )
                 raise AgentFailure(self._failure)
             self.replans += 1
+            self.replans_ran_out += ran_out
         plan = self.planner.plan(state, self.rng, self.steps_left())
         self.history.append(self.planner.stats)
         if plan is None or not plan.actions:
@@ -474,12 +482,13 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
             raise AgentFailure(f"{self.name}: act() before reset()")
         state = self.observed_state(obs)
         plan = self._plan
-        stale = self._t >= len(plan.actions) or (
+        ran_out = self._t >= len(plan.actions)
+        stale = ran_out or (
             self.args.replan_on_divergence
             and not _close(state, plan.states[self._t], self.args.divergence_atol)
         )
         if stale:
-            self._replan(state)
+            self._replan(state, ran_out=ran_out)
         plan = self._plan
         action = plan.actions[self._t]
         i = plan.skill_index(self._t)
@@ -489,6 +498,16 @@ class BilevelPlanningAgent(Agent[BilevelPlanningArgs]):
         self._t += 1
         self._steps_taken += 1
         return self.clip(action)
+
+    def episode_info(self) -> dict[str, Any]:
+        """The episode's planning calls and re-plans: ``replans`` in all, ``replans_ran_out``
+        of them because the plan's actions ran out (the others: the observed state left the
+        plan). Upstream's agent never re-plans (``max_replans=0``)."""
+        return {
+            "planning_calls": len(self.history),
+            "replans": self.replans,
+            "replans_ran_out": self.replans_ran_out,
+        }
 
     @property
     def plan_(self) -> RefinedPlan | None:

@@ -93,6 +93,17 @@ def bench_run(
             "with the paper's (kinder_bench/data/paper_settings.csv)."
         ),
     ] = "",
+    obs_noise: Annotated[
+        float,
+        typer.Option(
+            help="Std of Gaussian noise on every observation entry (clipped to the bounds), as "
+            "in the paper's noise table; a run under noise is a variant, never a paper cell."
+        ),
+    ] = 0.0,
+    action_noise: Annotated[
+        float,
+        typer.Option(help="Std of Gaussian noise on every action entry (clipped to the bounds)."),
+    ] = 0.0,
     imports: ImportOpt = None,
 ) -> None:
     """Run every agent on every env over the seeds (resuming what the run directory has).
@@ -111,7 +122,18 @@ def bench_run(
     pairs = _runnable(envs_, agent or ["random"], args)
     seed_list = parse_seeds(seeds)
     runs = [
-        RunConfig(e, a, a_args, seed_list, episodes, max_steps, label=label, training=training)
+        RunConfig(
+            e,
+            a,
+            a_args,
+            seed_list,
+            episodes,
+            max_steps,
+            label=label,
+            training=training,
+            obs_noise=obs_noise,
+            action_noise=action_noise,
+        )
         for e, a, a_args in pairs
     ]
     with user_errors():

@@ -55,6 +55,8 @@ def campaign_cmd(
                 f"{cell.key}: {cell.agent} {dict(run.agent_args)} seeds {list(cell.seeds)} × "
                 f"{cell.episodes}, max_steps {cell.max_steps or 'paper/env default'}"
                 + (f", label {cell.label}" if cell.label else "")
+                + (f", obs noise {cell.obs_noise:g}" if cell.obs_noise else "")
+                + (f", action noise {cell.action_noise:g}" if cell.action_noise else "")
             )
             if cell.train is not None:
                 seeds = cell.seeds if cell.train.per_seed else (None,)

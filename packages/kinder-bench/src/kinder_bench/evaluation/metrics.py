@@ -96,6 +96,10 @@ class Summary:
     inference_time: Stat
     steps: Stat
     env_time: Stat
+    obs_noise: float = 0.0
+    """The run's observation noise std (records written before noise existed: 0)."""
+    action_noise: float = 0.0
+    """The run's action noise std."""
 
     @property
     def num_seeds(self) -> int:
@@ -127,6 +131,8 @@ def summarize(records: Sequence[Mapping[str, Any]], method: str | None = None) -
         inference_time=Stat.of([s.inference_time for s in per_seed]),
         steps=Stat.of([s.steps for s in per_seed]),
         env_time=Stat.of([s.env_time for s in per_seed]),
+        obs_noise=float(first.get("obs_noise", 0.0)),
+        action_noise=float(first.get("action_noise", 0.0)),
     )
 
 

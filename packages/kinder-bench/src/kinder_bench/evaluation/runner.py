@@ -1,7 +1,8 @@
 """The evaluation runner: a standard way to run any agent on any env and keep every result.
 
-A run is ``(env id, agent, agent arguments, seeds, episodes per seed, max steps)``
-(:class:`RunConfig`). Episode ``i`` of seed ``s`` resets the env with the ``i``-th draw of
+A run is ``(env id, agent, agent arguments, seeds, episodes per seed, max steps)``, optionally with
+Gaussian observation and action noise on the env (:class:`RunConfig`; the paper's robustness
+experiment). Episode ``i`` of seed ``s`` resets the env with the ``i``-th draw of
 ``numpy.random.default_rng(s).integers(0, 2**31 - 1)``, so the episode instances depend only on
 the seed and every method sees the same ones. The agent of that episode is seeded from
 ``SeedSequence([s, i])``; an episode therefore depends on nothing else, which makes results
@@ -61,6 +62,7 @@ from kinder_bench.evaluation.results import (
     write_text,
 )
 from kinder_bench.evaluation.summary import CSV_FILE, csv_table, dedupe, run_commands, run_trainings
+from kinder_core import NoisyAction, NoisyObservation
 
 #: Fields that are wall-clock measurements or describe the machine while the episode ran
 #: (everything else in a record is deterministic).
@@ -91,6 +93,13 @@ class RunConfig:
     """The training budget of a learned agent's checkpoints, in words (``1M env steps``),
     recorded in ``config.json`` and the summary rows (a learned agent fills a paper cell only
     with the paper's budget; :mod:`kinder_bench.reporting.paper`); empty: not recorded."""
+    obs_noise: float = 0.0
+    """Std of the Gaussian noise added to every observation entry
+    (:class:`kinder_core.NoisyObservation`, clipped to the observation bounds); 0: none. A run
+    with noise is a variant (the paper's noise table), never a paper cell."""
+    action_noise: float = 0.0
+    """Std of the Gaussian noise added to every action entry before the env steps
+    (:class:`kinder_core.NoisyAction`, clipped to the action bounds); 0: none."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -111,6 +120,8 @@ class EpisodeTask:
     imports: tuple[str, ...] = ()
     video_stride: int = 1
     """Record every this many steps (and the first and last frame)."""
+    obs_noise: float = 0.0
+    action_noise: float = 0.0
 
     @property
     def key(self) -> tuple[str, int, int]:
@@ -139,10 +150,32 @@ def agent_seed(seed: int, episode: int) -> int:
     return int(np.random.SeedSequence([seed, episode]).generate_state(1)[0])
 
 
-def run_id(env_id: str, agent: str, agent_args: Mapping[str, Any], max_steps: int) -> str:
-    """A short stable hash of what determines a run's results (not its seeds or label)."""
-    blob = json.dumps([env_id, agent, dict(agent_args), max_steps], sort_keys=True)
+def run_id(
+    env_id: str,
+    agent: str,
+    agent_args: Mapping[str, Any],
+    max_steps: int,
+    obs_noise: float = 0.0,
+    action_noise: float = 0.0,
+) -> str:
+    """A short stable hash of what determines a run's results (not its seeds or label). Noise
+    enters only when there is some, so noise-free runs keep the ids they always had."""
+    parts: list[Any] = [env_id, agent, dict(agent_args), max_steps]
+    if obs_noise or action_noise:
+        parts.append({"obs_noise": obs_noise, "action_noise": action_noise})
+    blob = json.dumps(parts, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:12]
+
+
+def check_noise(name: str, std: float) -> float:
+    """A noise std as a float, or a ValueError naming it and what is expected."""
+    try:
+        value = float(std)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} {std!r}: expected a number >= 0 (a Gaussian std)") from None
+    if not math.isfinite(value) or value < 0:
+        raise ValueError(f"{name} {std!r}: expected a finite number >= 0 (a Gaussian std)")
+    return value
 
 
 def import_modules(modules: Sequence[str]) -> None:
@@ -164,6 +197,8 @@ class ResolvedRun:
     episodes: int
     max_steps: int
     training: str = ""
+    obs_noise: float = 0.0
+    action_noise: float = 0.0
 
 
 def resolve_run(config: RunConfig) -> ResolvedRun:
@@ -179,8 +214,12 @@ def resolve_run(config: RunConfig) -> ResolvedRun:
         raise ValueError(
             f"A run needs max_steps > 0, episodes > 0 and at least one seed; got {config}"
         )
+    obs_noise = check_noise("obs_noise", config.obs_noise)
+    action_noise = check_noise("action_noise", config.action_noise)
     return ResolvedRun(
-        run_id=run_id(env_id, config.agent, identity_args(made), max_steps),
+        run_id=run_id(
+            env_id, config.agent, identity_args(made), max_steps, obs_noise, action_noise
+        ),
         env_id=env_id,
         agent=config.agent,
         agent_args=args,
@@ -189,6 +228,8 @@ def resolve_run(config: RunConfig) -> ResolvedRun:
         episodes=int(config.episodes),
         max_steps=int(max_steps),
         training=config.training.strip(),
+        obs_noise=obs_noise,
+        action_noise=action_noise,
     )
 
 
@@ -226,19 +267,30 @@ def make_tasks(
                     video_path=video,
                     imports=imports,
                     video_stride=stride,
+                    obs_noise=run.obs_noise,
+                    action_noise=run.action_noise,
                 )
             )
     return tasks
 
 
 # Envs are reused across the episodes a process runs (``reset(seed=...)`` fully re-seeds them).
-_ENV_CACHE: dict[tuple[str, int], gymnasium.Env[Any, Any]] = {}
+_ENV_CACHE: dict[tuple[str, int, float, float], gymnasium.Env[Any, Any]] = {}
 
 
-def _env_for(env_id: str, max_steps: int) -> gymnasium.Env[Any, Any]:
-    key = (env_id, max_steps)
+def _env_for(
+    env_id: str, max_steps: int, obs_noise: float = 0.0, action_noise: float = 0.0
+) -> gymnasium.Env[Any, Any]:
+    """The episode's env: the id's Box view, inside the noise wrappers when the run has noise
+    (their RNGs are seeded by each ``reset(seed=...)``, so an episode's noise is fixed too)."""
+    key = (env_id, max_steps, obs_noise, action_noise)
     if key not in _ENV_CACHE:
-        _ENV_CACHE[key] = make_env(env_id, max_steps=max_steps, render_mode="rgb_array")
+        env = make_env(env_id, max_steps=max_steps, render_mode="rgb_array")
+        if obs_noise:
+            env = NoisyObservation(env, obs_noise)
+        if action_noise:
+            env = NoisyAction(env, action_noise)
+        _ENV_CACHE[key] = env
     return _ENV_CACHE[key]
 
 
@@ -268,6 +320,8 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         "episode": task.episode,
         "env_seed": task.env_seed,
         "agent_seed": task.agent_seed,
+        "obs_noise": task.obs_noise,
+        "action_noise": task.action_noise,
     }
     success, steps, total_reward = False, 0, 0.0
     inference_time = inference_cpu = env_time = 0.0
@@ -279,7 +333,7 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
     agent: Agent[Any] | None = None
     try:
         import_modules(task.imports)
-        env = _env_for(task.env_id, task.max_steps)
+        env = _env_for(task.env_id, task.max_steps, task.obs_noise, task.action_noise)
         phase = "agent"
         agent_args = with_run_seed(task.agent_args, task.seed)
         agent = make_agent(task.agent, env, agent_args, seed=task.agent_seed)

@@ -57,12 +57,15 @@ CSV_COLUMNS = (
     "agent_args",
     "training",
     "provenance",
+    "obs_noise",
+    "action_noise",
 )
 """A summary row: the aggregate, the command that ran it, and the settings that decide whether
 it is at the paper's protocol (:func:`kinder_bench.reporting.paper.protocol_deviations`): ``seeds``
 (space-separated), ``agent_args`` (JSON), ``training`` (a learned agent's training budget, written
-by the tool that trained it) and ``provenance`` (empty for rows the runner wrote; where a
-transcribed row comes from otherwise)."""
+by the tool that trained it), ``provenance`` (empty for rows the runner wrote; where a
+transcribed row comes from otherwise) and ``obs_noise``/``action_noise`` (the noise stds of a
+run under noise; empty: none, as in every row written before the columns existed)."""
 
 
 def run_commands(run_dirs: Sequence[Path | str]) -> dict[str, str]:
@@ -129,6 +132,8 @@ def csv_table(
                 json.dumps(s.agent_args, sort_keys=True, default=str),
                 trainings.get(s.run_id, ""),
                 "",
+                v(s.obs_noise) if s.obs_noise else "",
+                v(s.action_noise) if s.action_noise else "",
             ]
         )
     return buf.getvalue()

@@ -173,6 +173,10 @@ class Result:
     empty for rows the runner wrote."""
     summary: str = ""
     """The name of the summary file the row was read from (empty: not read from one)."""
+    obs_noise: float = 0.0
+    """The observation noise std of a run under noise (0: none)."""
+    action_noise: float = 0.0
+    """The action noise std of a run under noise (0: none)."""
 
     @property
     def name(self) -> str:
@@ -216,6 +220,8 @@ def results_from_summaries(
             max_steps=s.max_steps,
             agent_args=dict(s.agent_args),
             training=trainings.get(s.run_id, ""),
+            obs_noise=s.obs_noise,
+            action_noise=s.action_noise,
         )
         for s in summaries
     ]
@@ -237,8 +243,8 @@ def parse_seeds_field(text: str) -> tuple[int, ...] | None:
 
 def results_from_csv(path: Path | str) -> list[Result]:
     """Results from a ``summary.csv`` written by the report (extra columns are ignored; the
-    ``command``, ``seeds``, ``max_steps``, ``agent_args`` (JSON), ``training`` and ``provenance``
-    columns, when there, are kept)."""
+    ``command``, ``seeds``, ``max_steps``, ``agent_args`` (JSON), ``training``, ``provenance``,
+    ``obs_noise`` and ``action_noise`` columns, when there, are kept)."""
     path = Path(path)
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
@@ -266,6 +272,8 @@ def results_from_csv(path: Path | str) -> list[Result]:
                     training=row.get("training", "") or "",
                     provenance=row.get("provenance", "") or "",
                     summary=path.name,
+                    obs_noise=float(row.get("obs_noise") or 0.0),
+                    action_noise=float(row.get("action_noise") or 0.0),
                 )
             )
         except (KeyError, ValueError) as e:
@@ -453,6 +461,10 @@ def protocol_deviations(result: Result, settings: Settings | None = None) -> tup
                 out.append(f"{key}={_value_text(result.agent_args[key])}")
     if "training" in want and result.training != want["training"]:
         out.append(f"training {result.training}" if result.training else "training not recorded")
+    if result.obs_noise:
+        out.append(f"obs noise {result.obs_noise:g}")
+    if result.action_noise:
+        out.append(f"action noise {result.action_noise:g}")
     if result.provenance:
         out.append("transcribed")
     if measured_before_conformance(result):
