@@ -306,6 +306,18 @@ def read_rows(path: Path) -> dict[str, str]:
     return rows
 
 
+def read_suite_checks(path: Path) -> dict[str, str]:
+    """The existing table's suite-wide check lines by test (and parameter), so a
+    ``--family`` run keeps the checks it did not run."""
+    checks: dict[str, str] = {}
+    if path.exists():
+        for line in path.read_text().splitlines():
+            m = re.match(r"^- (`[^`]+`(?: \[[^\]]*\])?):", line)
+            if m:
+                checks[m.group(1)] = line
+    return checks
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--out", type=Path, default=OUT)
@@ -341,6 +353,11 @@ def main(argv: list[str] | None = None) -> None:
         else:
             results.setdefault(env_id, []).append(result)
     lines = read_rows(args.out) if args.family else {}
+    if args.family:  # the checks this run did not repeat stay as they were
+        kept = read_suite_checks(args.out)
+        for line in suite:
+            kept[line.split(":", 1)[0][2:]] = line
+        suite = list(kept.values())
     for env_id in todo:
         lines[env_id] = row_for(env_id, results.get(env_id, []))
         print(lines[env_id], flush=True)
