@@ -109,6 +109,20 @@ def test_stickbutton2d_skills_chain() -> None:
     assert "(HandEmpty robot)" in {str(a) for a in model.abstract(state)}
 
 
+def test_stickbutton2d_stick_without_area_fails_the_pick_cleanly() -> None:
+    """A noisy observation clipped to a zero stick width leaves no face to grasp: the pick skill
+    fails like any unreachable sample (no NaN from the face geometry)."""
+    env = make_object_centric("kinder/StickButton2D-b1-v0")
+    model = create_model(env)
+    state = env.reset(seed=1000)[0]
+    state.set(env.stick, "width", 0.0)
+    pick = next(op for op in model.ground_operators(state) if op.name.startswith("PickStick"))
+    controller = model.skill(pick).controller
+    for face in (0.1, 0.5, 0.9):  # the end face and both long faces
+        with np.errstate(all="raise"), pytest.raises(SkillFailure, match="no area"):
+            controller.goal_config(state, np.array([face, 0.5, 0.5]))
+
+
 def test_registry() -> None:
     env = make_object_centric("kinder/StickButton2D-b1-v0")
     assert family_of(env) == "StickButton2D"

@@ -232,9 +232,12 @@ def _grasp_faces(
 ) -> list[tuple[FloatArray, FloatArray, FloatArray, float]]:
     """The faces the stick may be grasped on: its lowest short face, then its two long faces
     (the "U" of the stick's lower end). Each is ``(start corner, unit tangent, inward unit
-    normal, length)``."""
+    normal, length)``. A stick without area (a noisy observation clipped to a zero width, say)
+    has no faces: :class:`SkillFailure`."""
     x, y, th = (state.get(stick, k) for k in ("x", "y", "theta"))
     w, h = state.get(stick, "width"), state.get(stick, "height")
+    if not (w > 0 and h > 0):
+        raise SkillFailure(f"the stick has no area to grasp (width {w}, height {h})")
     c, s = math.cos(th), math.sin(th)
     ax_w = np.array([c, s])
     ax_h = np.array([-s, c])
