@@ -60,6 +60,20 @@ WRAP_DIMS: tuple[int, ...] = (2, *(3 + i for i in range(7) if not np.isfinite(_L
 JOINT_LOW = np.where(np.isfinite(_LOW), _LOW, -math.pi)
 JOINT_HIGH = np.where(np.isfinite(_HIGH), _HIGH, math.pi)
 HOME = np.array(RETRACT, dtype=np.float64)
+
+
+def _chassis_half_xy() -> tuple[float, float]:
+    """Half extents (x, y) of the base link's colliding boxes, in the base frame."""
+    base = robot_description().links[0]
+    boxes = [g for g in base.geoms if g.collide and g.kind == "box"]
+    return (
+        max(abs(g.pos[0]) + g.size[0] for g in boxes),
+        max(abs(g.pos[1]) + g.size[1] for g in boxes),
+    )
+
+
+#: The base chassis's footprint (half extents along the base's x and y, metres).
+CHASSIS_HALF_XY = _chassis_half_xy()
 #: A family's env config type (see :meth:`TidyBotController.env_config`).
 ConfigT = TypeVar("ConfigT")
 
@@ -210,6 +224,10 @@ class ConfigChecker:
         if self.held is not None:
             moving |= {self.held.name, *(o.name for o in self.carried)}
         self.moving = moving
+        #: Objects whose contacts with the robot are not collisions while they lie within the
+        #: base chassis's footprint (where only the chassis can touch them; for envs that do
+        #: not check the base, see :meth:`ReachController.make_checker`).
+        self.under_base: frozenset[str] = frozenset()
         self._base_pose = {
             o: (state[o][:3].copy(), state[o][3:7].copy())
             for o in [self.held, *self.carried]
@@ -245,7 +263,49 @@ class ConfigChecker:
                 return False
         pairs = self.env.penetrations(state)  # type: ignore[attr-defined]
         # Only contacts between something that moves and something that does not count.
-        return all((a in self.moving) == (b in self.moving) for a, b in pairs)
+        return all(
+            (a in self.moving) == (b in self.moving)
+            or (a == "robot" and self._under_base(state, b))
+            or (b == "robot" and self._under_base(state, a))
+            for a, b in pairs
+        )
+
+    def _under_base(self, state: ObjectCentricState, name: str) -> bool:
+        """Whether ``name`` is in :attr:`under_base` and its footprint (a disc of its half
+        extents' radius) meets the chassis's footprint at the robot's base pose."""
+        if name not in self.under_base:
+            return False
+        f = state[state.get_object_from_name(name)]
+        x, y, yaw = (float(v) for v in state[self.robot][:3])
+        dx, dy = float(f[0]) - x, float(f[1]) - y
+        c, s = math.cos(yaw), math.sin(yaw)
+        lx, ly = c * dx + s * dy, -s * dx + c * dy
+        r = float(np.hypot(f[9], f[10]))
+        hx, hy = CHASSIS_HALF_XY
+        return abs(lx) < hx + r and abs(ly) < hy + r
+
+
+def _split_turns(base: FloatArray, path: Sequence[FloatArray]) -> list[FloatArray]:
+    """The arm ``path`` (7-D, start first) as 10-D configurations after the start, its segments
+    split where they turn a continuous joint by more than half a turn.
+
+    The path is checked without wrapping, but the controller turns a continuous joint the
+    short way round: split, the arm moves along the checked segment (unsplit, it left it and
+    the env stopped it on a collision)."""
+    wrapped = [i - 3 for i in WRAP_DIMS[1:]]
+    out = []
+    prev = np.asarray(path[0], dtype=np.float64)
+    for q in path[1:]:
+        q = np.asarray(q, dtype=np.float64)
+        d = q - prev
+        n = max(1, math.ceil(float(np.max(np.abs(d[wrapped]), initial=0.0)) / 3.0))
+        out += [np.concatenate([base, prev + d * (k / n)]) for k in range(1, n + 1)]
+        prev = q
+    return out
+
+
+#: Collision-checking resolution of arm motions (radians per joint).
+ARM_STEP = 0.1
 
 
 def arm_path(
@@ -268,20 +328,27 @@ def arm_path(
         goal[j] = start[i] + wrap(float(goal[j] - start[i]))
     lo = np.minimum(JOINT_LOW, np.minimum(start[3:], goal) - 0.5)
     hi = np.maximum(JOINT_HIGH, np.maximum(start[3:], goal) + 0.5)
+    # A limited joint stays within the env's limits (the env clips a motion beyond them, and
+    # the arm then stops short of the path).
+    limits = checker.env.config.arm_joint_limits  # type: ignore[attr-defined]
+    for j, lim in enumerate(limits):
+        if lim is not None:
+            lo[j] = min(max(lo[j], -lim), start[3 + j], goal[j])
+            hi[j] = max(min(hi[j], lim), start[3 + j], goal[j])
     path = plan_joint_space(
         start[3:],
         goal,
         valid,
         lo,
         hi,
-        max_step=0.1,
+        max_step=ARM_STEP,
         seed=seed,
         timeout=timeout,
         max_iterations=3000,
     )
     if path is None:
         raise SkillFailure("no collision-free arm path")
-    return [np.concatenate([base, q]) for q in path[1:]]
+    return _split_turns(base, path)
 
 
 def base_path(
@@ -405,8 +472,7 @@ class ReachController(TidyBotController):
         """Retract, drive to ``base_goal``, reach the pre-pose ``ee_pos + approach`` (default
         ``APPROACH`` straight above), move straight in, send ``gripper``, then move back to the
         pre-pose, or to ``ee_pos + lift`` when ``lift`` is given."""
-        env = self.context
-        checker = ConfigChecker(env, state)
+        checker = self.make_checker(state)
         q = np.asarray(state[self.robot][:10], dtype=np.float64)
         seed = params_seed(self.params, salt)
         wps, q = self._drive(checker, q, base_goal, self.planning_bounds(state), seed, seed)
@@ -429,6 +495,11 @@ class ReachController(TidyBotController):
             up = solve_ik(ee_pos + lift, ee_quat, q[:3], at)
             wps.append(self._wp(np.concatenate([q[:3], up])))
         return wps
+
+    def make_checker(self, state: ObjectCentricState) -> ConfigChecker:
+        """The collision checker of the motions planned from ``state`` (families may let it
+        pass over objects, see :attr:`ConfigChecker.under_base`)."""
+        return ConfigChecker(self.context, state)
 
     def planning_bounds(self, state: ObjectCentricState) -> tuple[float, float, float, float]:
         """Where the base may go while planning: the box around the robot and every cuboid,
