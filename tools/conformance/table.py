@@ -295,27 +295,22 @@ def row_for(env_id: str, results: list[TestResult]) -> str:
     return "| " + " | ".join([f"`{env_id}`", *map(_cell, cells)]) + " |"
 
 
-def read_rows(path: Path) -> dict[str, str]:
-    """The existing table's lines by id (to keep rows not regenerated)."""
-    rows: dict[str, str] = {}
-    if path.exists():
-        for line in path.read_text().splitlines():
-            m = re.match(r"^\| `(kinder/[^`]+)` \|", line)
-            if m:
-                rows[m.group(1)] = line
-    return rows
+#: A row of the per-id tables, keyed by its id.
+ROW_LINE = re.compile(r"^\| `(kinder/[^`]+)` \|")
+#: A suite-wide check's line, keyed by its test (and parameter).
+SUITE_LINE = re.compile(r"^- (`[^`]+`(?: \[[^\]]*\])?):")
 
 
-def read_suite_checks(path: Path) -> dict[str, str]:
-    """The existing table's suite-wide check lines by test (and parameter), so a
-    ``--family`` run keeps the checks it did not run."""
-    checks: dict[str, str] = {}
+def read_lines(path: Path, pattern: re.Pattern[str]) -> dict[str, str]:
+    """The existing table's lines that match ``pattern``, by its first group (a ``--family``
+    run keeps the rows and suite-wide checks it did not regenerate)."""
+    out: dict[str, str] = {}
     if path.exists():
         for line in path.read_text().splitlines():
-            m = re.match(r"^- (`[^`]+`(?: \[[^\]]*\])?):", line)
+            m = pattern.match(line)
             if m:
-                checks[m.group(1)] = line
-    return checks
+                out[m.group(1)] = line
+    return out
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -352,11 +347,12 @@ def main(argv: list[str] | None = None) -> None:
             )
         else:
             results.setdefault(env_id, []).append(result)
-    lines = read_rows(args.out) if args.family else {}
+    lines = read_lines(args.out, ROW_LINE) if args.family else {}
     if args.family:  # the checks this run did not repeat stay as they were
-        kept = read_suite_checks(args.out)
+        kept = read_lines(args.out, SUITE_LINE)
         for line in suite:
-            kept[line.split(":", 1)[0][2:]] = line
+            m = SUITE_LINE.match(line)
+            kept[m.group(1) if m else line] = line
         suite = list(kept.values())
     for env_id in todo:
         lines[env_id] = row_for(env_id, results.get(env_id, []))
