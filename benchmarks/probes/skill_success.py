@@ -23,7 +23,10 @@ parameter samples from its own sampler:
   all its samples waits for the next pass, and a place after which no Pick works is drawn
   again, as the planner would backtrack; an object that reached its goal with another one (a
   neighbour carried along) is skipped (SortClutteredBlocks3D bins and bowls); no step limit
-  (the actions are counted, to size a variant's step budget).
+  (the actions are counted, to size a variant's step budget). A model that moves the objects
+  with a tool (SweepSimple3D: PickWiper, then Sweep of each block) takes the tool once, then
+  runs the one operator on each object in the same passes, up to the model's
+  ``max_skill_horizon`` actions a run (a sweep takes more than the carrying skills' 400).
 * ``scoop``: GraspScoop, then ScoopAndPour within what is left of the episode's step limit
   (DynScoopPour2D-oN), one parameter sample each, so its counts are single-sample rates.
 
@@ -150,7 +153,8 @@ def main(argv: list[str] | None = None) -> None:
                 continue
             reached = model.abstract(out.states[-1])
             after = {str(a) for a in reached}
-            if skill == "Sweep":  # monotone: other screws may drop in too, none may be lost
+            if args.model == "sweep" and skill == "Sweep":
+                # monotone: other screws may drop in too, none may be lost
                 ok = f"(InDrawer {target})" in after and not any("(Lost" in a for a in after)
             else:  # as the planner accepts it: exact, or extra monotone atoms
                 ok = out.finished and abstract_match(model, reached, want_atoms)
@@ -193,10 +197,23 @@ def main(argv: list[str] | None = None) -> None:
             assert state is not None
             goal = {str(a) for a in model.goal(state)}
             objs = sorted(n.split(", ")[1].rstrip(")") for n in ops if n.startswith("Pick("))
-            place_of = {
-                o: next(n for n in ops if not n.startswith("Pick(") and f", {o})" in n)
+            horizon = MAX_STEPS
+            # Each object's operators: Pick, then the place; with a tool (no Pick of an object:
+            # SweepSimple3D), the tool's pick once, then the one operator on each object.
+            moves = {
+                o: (f"Pick(robot, {o})",
+                    next(n for n in ops if not n.startswith("Pick(") and f", {o})" in n))
                 for o in objs
-            }
+            }  # fmt: skip
+            if not objs:
+                objs = sorted({a.strip("()").split()[-1] for a in goal})
+                tool_pick = next(n for n in ops if n.startswith("Pick")
+                                 and n.split(", ")[-1].rstrip(")") not in objs)  # fmt: skip
+                tool = tool_pick.split(", ")[-1].rstrip(")")
+                use = next(n.split("(")[0] for n in ops if f"(robot, {tool}, " in n)
+                moves = {o: (f"{use}(robot, {tool}, {o})",) for o in objs}
+                horizon = model.max_skill_horizon  # a sweep is longer than MAX_STEPS
+                state = run(tool_pick, tool_pick.split("(")[0], state, rng, max_steps=horizon)
             pending = list(objs)
             # (state before the last place, the place's name, its action count): a place
             # after which no pick works is drawn again, as the planner would backtrack.
@@ -209,16 +226,18 @@ def main(argv: list[str] | None = None) -> None:
                         pending.remove(obj)  # let down in the goal area with another object
                         progress = True
                         continue
-                    before = steps
-                    picked = run(f"Pick(robot, {obj})", "Pick", state, rng)
+                    start = steps
+                    *firsts, place = moves[obj]
+                    picked: ObjectCentricState | None = state
+                    for name in firsts:
+                        if picked is not None:
+                            picked = run(name, name.split("(")[0], picked, rng)
                     if picked is None:
                         continue
-                    pick_n = steps - before
-                    place = place_of[obj]
                     before = steps
-                    placed = run(place, place.split("(")[0], picked, rng)
+                    placed = run(place, place.split("(")[0], picked, rng, max_steps=horizon)
                     if placed is None:  # every place failed: undo the pick, try it again later
-                        steps -= pick_n
+                        steps = start
                         continue
                     state, last = placed, (picked, place, steps - before)
                     if {a for a in goal if obj in a.strip("()").split()} <= atoms(state):
@@ -228,7 +247,7 @@ def main(argv: list[str] | None = None) -> None:
                     picked, place, n = last
                     redraws += 1
                     before = steps
-                    redo = run(place, place.split("(")[0], picked, rng)
+                    redo = run(place, place.split("(")[0], picked, rng, max_steps=horizon)
                     if redo is not None:  # the new place replaces the old one
                         last = (picked, place, steps - before)
                         steps -= n
