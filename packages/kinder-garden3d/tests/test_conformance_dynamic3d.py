@@ -162,6 +162,15 @@ rules, keyed by family name, beside the id rules above:
   compared after removing up to 3 mm of offset, and one step from upstream's state lifts the
   cubes out of the deeper contacts (objects max 4e-3 m; measured 1.2e-3, 1.7e-3, 2.8e-3 and
   3.3e-3 on o20-o50). Slimmed like the o50 sweeps (o50: 15 seeds, 2 steps).
+* ScoopPour3D-o100 (recorded with ``--seeds 12 --full 2 --random 1 --steps 4``, slimmed to 12
+  seeds, one vector and one step: ``tools/conformance/README.md``): under a hundred cubes
+  upstream's pile sinks 5.1 mm below ours and its yellow bin 4.9 mm (heights compared after
+  removing up to 6 mm), and the first step from upstream's state lifts the cubes by 6.3 mm
+  (objects max 7e-3). Sunk into itself, upstream's pile has more of its cubes tilted (over
+  1 degree: 51 % of its 1,200 cubes against 26 % of our 3,000 on seeds 1000..1029; over 10
+  degrees 14 % against 9 %) and still turning (angular speed over 0.05 rad/s: 28 % against 15 %):
+  the cubes' qx, qy and angular velocities are left out (``KEPT``); their yaw and positions are
+  compared.
 * Rearrange3D: the drink's rocking and the can's 0.4 mm box are kept as for the first id; in 1
   of upstream's 30 o2 seeds the can lands against the island's drawer and slides it 8 mm open
   (none of ours), so the drawers are compared by the KS test alone.
@@ -240,6 +249,7 @@ VARIANT_IDS = (
     "ScoopPour3D-o30",
     "ScoopPour3D-o40",
     "ScoopPour3D-o50",
+    "ScoopPour3D-o100",
 )
 SETTLE_ATOL = 1e-9  # float rounding after the resolution
 CONST_ATOL = 1e-6
@@ -334,6 +344,11 @@ KEPT = {
         "can_0.bb_y",
     },
     "ScoopPour3D": {"scoop_0.bb_x", "scoop_0.bb_y"},
+    "kinder/ScoopPour3D-o100-v0": {
+        "scoop_0.bb_x",
+        "scoop_0.bb_y",
+        *(f"cube_*.{f}" for f in ("qx", "qy", "wx", "wy", "wz")),
+    },
     "Dynamo3D": {f"obstacle_chair*.{f}" for f in ("bb_x", "bb_y", "bb_z", "wx", "wy", "wz")},
     "kinder/Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl-v0": {
         f"boxed_drink_0.{f}" for f in ("qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
@@ -351,7 +366,11 @@ KEPT = {
 #: (m): upstream's contacts sink deeper under load (ScoopPour3D: the yellow bin under ten 0.1 kg
 #: cubes 0.6 mm, the cubes on its floor 0.9 mm; measured on seeds 1000..1029 against upstream's;
 #: under fifty cubes 2.5 and 2.7 mm, on seeds 1000..1019).
-HEIGHT_SHIFT = {"kinder/ScoopPour3D-o10-v0": 1.5e-3, "ScoopPour3D": 3e-3}
+HEIGHT_SHIFT = {
+    "kinder/ScoopPour3D-o10-v0": 1.5e-3,
+    "ScoopPour3D": 3e-3,
+    "kinder/ScoopPour3D-o100-v0": 6e-3,
+}
 #: Per-id one-step tolerances that replace ``STEP_TOL``'s for some groups (module docstring).
 STEP_TOL_BY_ID = {
     "kinder/Shelf3D-o2-v0": {"objects": (0.02, 0.06)},
@@ -364,6 +383,7 @@ STEP_TOL_BY_ID = {
     "SweepSimple3D": {"base": (1e-3, 0.2)},
     "kinder/ScoopPour3D-o10-v0": {},
     "ScoopPour3D": {"objects": (4e-3, 4e-3)},
+    "kinder/ScoopPour3D-o100-v0": {"objects": (7e-3, 7e-3)},
 }
 
 
