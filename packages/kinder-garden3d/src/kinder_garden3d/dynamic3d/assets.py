@@ -17,7 +17,9 @@ Conventions (all lengths in metres, masses in kg, sizes are *full* extents):
   A seesaw has the frame ``beam`` (the beam's centre, tilting with the hinge).
 
 Collision filtering uses bitmasks: fixtures and the floor never collide with each other
-(contype 2, conaffinity 1); objects, drawers and the robot collide with everything.
+(contype 2, conaffinity 1); objects, drawers and the robot collide with everything, except a
+drawer with its own fixture (the scene excludes that pair; the drawer's slide joint and its
+limits hold it).
 """
 
 from __future__ import annotations

@@ -267,6 +267,17 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int], arm_motors: bool = 
     else:
         robot_body, robot_act, robot_eq, robot_default = _robot_xml(arm_motors)
     world_markers = "\n".join(markers.get("world", []))
+    # A working drawer is a child body of its fixture, a mocap body. MuJoCo 4.0 gives a mocap
+    # body a weld id of its own, so its parent filter keeps the drawer from colliding with the
+    # fixture; MuJoCo 3.3 welds mocap bodies to the world, where that filter does not apply, and
+    # the drawer's back wall (1 cm into the fixture's back panel) would push the drawer 1 cm open.
+    # Excluding the pair keeps both versions alike (the drawer slides on its joint and limits).
+    excludes = [
+        f'    <exclude body1="{n}" body2="{d.name}"/>'
+        for n, a in fixtures.items()
+        for d in a.drawers
+    ]
+    contact = f"  <contact>\n{chr(10).join(excludes)}\n  </contact>\n" if excludes else ""
     width, height = image_size
     xml = f"""<mujoco model="kinder_{task.family}">
   <compiler angle="radian" autolimits="true"/>
@@ -300,7 +311,7 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int], arm_motors: bool = 
 {chr(10).join(cameras)}
 {robot_body}
   </worldbody>
-  <equality>
+{contact}  <equality>
 {robot_eq}
   </equality>
   <actuator>
