@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -109,6 +110,8 @@ def test_records_have_the_schema(toy_id: str, tmp_path: Path) -> None:
     assert mpc["agent_args"]["horizon"] == 15 and mpc["agent_args"]["noise_fraction"] == 1.0
     assert mpc["max_steps"] == 40  # the env's registered budget
     assert "numpy" in rec["versions"] and "kinder-bench" in rec["versions"]
+    # The simulator under the env is recorded too (pymunk comes with kinder-garden2d).
+    assert rec["versions"]["pymunk"] == metadata.version("pymunk")
     # The agent's CPU time and the machine's load say how busy the machine was.
     assert rec["inference_cpu_time"] >= 0.0
     assert rec["load_avg"] is None or rec["load_avg"] >= 0.0

@@ -49,7 +49,7 @@ def test_round_trip_records_the_method_args_step_versions_and_info(tmp_path: Pat
     assert ckpt.path == path and ckpt.method == "dp" and ckpt.step == 7 and not ckpt.kept
     assert ckpt.args == {"dataset": str(tmp_path / "data"), "steps": 10, "sizes": [4, 8]}
     assert ckpt.info == {"env_id": "kinder/X-v0"}
-    assert {"python", "kinder-bench", "kinder-core"} <= set(ckpt.versions)
+    assert {"python", "kinder-bench", "kinder-core", "numpy", "pymunk"} <= set(ckpt.versions)
     assert load_checkpoint(path).step == 7  # one checkpoint directory is accepted too
     assert (tmp_path / "checkpoints" / "latest").read_text().strip() == path.name
 

@@ -7,46 +7,21 @@ a line is either fully there or (after a crash in the middle of the write) a par
 
 from __future__ import annotations
 
-import functools
 import json
 import os
 import platform
 import shlex
 import sys
 import warnings
-from importlib import metadata
 from pathlib import Path
 from typing import Any
+
+# Re-exported: the runner records these versions with every episode.
+from kinder_bench.training.checkpoints import package_versions as package_versions
 
 RESULTS_FILE = "results.jsonl"
 CONFIG_FILE = "config.json"
 SCHEMA_VERSION = 1
-
-_VERSIONED = (
-    "kinder-bench",
-    "kinder-core",
-    "kinder-garden2d",
-    "kinder-garden3d",
-    "kinder-gym",
-    "gymnasium",
-    "numpy",
-)
-
-
-@functools.cache
-def _versions() -> tuple[tuple[str, str], ...]:
-    out = [("python", platform.python_version())]
-    for name in _VERSIONED:
-        try:
-            out.append((name, metadata.version(name)))
-        except metadata.PackageNotFoundError:
-            continue
-    return tuple(out)
-
-
-def package_versions() -> dict[str, str]:
-    """Versions of Python and of the packages that decide a result."""
-    return dict(_versions())
 
 
 def load_records(path: Path | str) -> list[dict[str, Any]]:

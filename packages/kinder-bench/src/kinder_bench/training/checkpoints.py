@@ -18,7 +18,7 @@ A run directory (the trainer's ``--out``) keeps its checkpoints under ``checkpoi
     step             the trainer's unit: env steps (ppo, sac), optimiser steps (dp, dpes, gsc)
                      or epochs (mbrl)
     args             the trainer's argument dataclass as a dict (the command line that made it)
-    versions         Python's and the kinder packages' versions that wrote it
+    versions         the versions of Python and the packages that decide a result (``VERSIONED``)
     kept             true: rotation never deletes it (PPO/SAC ``keep_steps``)
     info             whatever the trainer stores for its agent (env id, spaces, feature names)
 
@@ -40,15 +40,17 @@ legacy in that error; train them again.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import os
 import platform
 import re
 import shutil
 from collections.abc import Callable, Collection, Mapping
-from importlib import metadata
 from pathlib import Path
 from typing import Any
+
+from kinder_gym.demos import record as demo_record
 
 #: The version of the format this module writes and reads.
 FORMAT_VERSION = 1
@@ -60,13 +62,15 @@ METADATA_FILE = "checkpoint.json"
 LATEST_FILE = "latest"
 #: Every trainer's method name.
 METHODS = ("ppo", "sac", "dp", "dpes", "mbrl", "gsc")
-#: The packages whose versions a checkpoint records.
+#: The packages whose versions decide a result, recorded with every checkpoint and every
+#: evaluated episode: a demonstration record's (ours and the simulators beneath the envs), this
+#: package and the learning libraries. Those not installed are left out.
 VERSIONED = (
     "kinder-bench",
-    "kinder-core",
-    "kinder-garden2d",
-    "kinder-garden3d",
-    "kinder-gym",
+    *demo_record.VERSIONED_PACKAGES,
+    "torch",
+    "stable-baselines3",
+    "lerobot",
 )
 
 _STEP_DIR = re.compile(r"^step_(\d+)$")
@@ -102,15 +106,14 @@ def checkpoint_name(step: int) -> str:
     return f"step_{step:09d}"
 
 
+@functools.cache
+def _versions() -> tuple[tuple[str, str], ...]:
+    return (("python", platform.python_version()), *demo_record.package_versions(VERSIONED).items())
+
+
 def package_versions() -> dict[str, str]:
-    """Python's and the kinder packages' versions (those installed)."""
-    out = {"python": platform.python_version()}
-    for name in VERSIONED:
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            continue
-    return out
+    """Versions of Python and of the installed ``VERSIONED`` packages."""
+    return dict(_versions())
 
 
 def args_dict(args: Any) -> dict[str, Any]:

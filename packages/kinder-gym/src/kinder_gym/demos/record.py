@@ -31,8 +31,20 @@ FloatArray = NDArray[np.float64]
 #: Where a demonstration came from.
 SOURCES = ("bilevel_planning", "mpc", "scripted", "teleop", "imported")
 
-#: Packages whose versions every record carries.
-VERSIONED_PACKAGES = ("kinder-core", "kinder-garden2d", "kinder-garden3d", "kinder-gym")
+#: Packages whose versions every record carries: ours and the simulators beneath the envs (a
+#: simulator's version can change an episode: MuJoCo 3.3 and 4.0 differ in box-box contact depth).
+VERSIONED_PACKAGES = (
+    "kinder-core",
+    "kinder-garden2d",
+    "kinder-garden3d",
+    "kinder-gym",
+    "gymnasium",
+    "numpy",
+    "pymunk",
+    "pybullet",
+    "mujoco",
+    "mink",
+)
 
 
 def package_versions(names: Sequence[str] = VERSIONED_PACKAGES) -> dict[str, str]:
