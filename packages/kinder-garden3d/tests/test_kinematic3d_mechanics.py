@@ -10,6 +10,7 @@ from garden3d_helpers import CLOSE, OPEN, action, move_ee, with_arm_at
 
 from kinder_garden3d.kinematic3d.base_env import Kinematic3DConfig, ResetError
 from kinder_garden3d.kinematic3d.geometry import compose, invert
+from kinder_garden3d.kinematic3d.kinematic_shelf3d import KinematicShelf3DEnv
 from kinder_garden3d.kinematic3d.obstruction3d import Obstruction3DEnv
 from kinder_garden3d.kinematic3d.table3d import Table3DConfig, Table3DEnv
 from kinder_garden3d.kinematic3d.transport3d import Transport3DEnv
@@ -209,3 +210,66 @@ def test_impossible_layouts_raise_a_reset_error():
     with pytest.raises(ResetError, match="could not sample"):
         env.reset(seed=0)
     env.close()
+
+
+def _scene_poses(env, state):
+    """Each observed object's body pose in the env's pybullet scene, as a flat vector."""
+    import pybullet as pb
+
+    scene = env._scene
+    out = []
+    for obj in state:
+        if obj == env.robot:
+            continue
+        pos, quat = pb.getBasePositionAndOrientation(scene.body(obj.name), scene.client)
+        out += [*pos, *quat]
+    return np.array(out)
+
+
+def test_syncing_states_in_any_order_leaves_the_scene_as_a_fresh_sync_does():
+    """The scene keeps an object's body and pose while its features are unchanged: after a run
+    of states that move one object, then another, then step, the scene holds each state exactly
+    as an env that loads only that state."""
+    env = KinematicShelf3DEnv(num_cubes=3)
+    fresh = KinematicShelf3DEnv(num_cubes=3)
+    try:
+        start = env.reset(seed=1000)[0]
+        fresh.reset(seed=1000)
+        states = [start]
+        for i, cube in enumerate(env.cubes):
+            s = states[-1].copy()
+            s[cube][:3] += np.array([0.05 * (i + 1), -0.03, 0.0])
+            states.append(s)
+        states.append(start)  # back to the first: every moved cube is posed again
+        for s in [*states, states[2], states[1]]:
+            env.penetrations(s)
+            fresh._sync_cache.rows.clear()  # no body kept from an earlier state
+            fresh._sync(s, force=True)
+            assert np.array_equal(_scene_poses(env, s), _scene_poses(fresh, s))
+        # A step sweeps the robot (and moves bodies itself); what it leaves is loaded again.
+        env.set_state(start)
+        after, *_ = env.step(action(base=(0.05, 0.0, 0.0)))
+        fresh._sync(after, force=True)
+        assert np.array_equal(_scene_poses(env, after), _scene_poses(fresh, after))
+    finally:
+        env.close()
+        fresh.close()
+
+
+def test_penetrations_among_moving_bodies_are_those_of_the_full_check():
+    """``penetrations(state, moving)`` reports exactly the full check's pairs that have one
+    member moving (what a motion planner tests) and skips the rest."""
+    env = KinematicShelf3DEnv(num_cubes=3)
+    try:
+        state = env.reset(seed=1001)[0].copy()
+        a, b, c = env.cubes
+        # Stack two cubes into each other and push the third into the shelf's post.
+        state[b][:3] = state[a][:3]
+        state[c][:3] = state[env.shelf][:3]
+        full = env.penetrations(state)
+        assert (a.name, b.name) in full or (b.name, a.name) in full
+        for moving in ({"robot"}, {"robot", a.name}, {b.name, c.name}, set()):
+            want = [p for p in full if (p[0] in moving) != (p[1] in moving)]
+            assert env.penetrations(state, moving) == want
+    finally:
+        env.close()

@@ -32,6 +32,7 @@ when a state is loaded.
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -172,9 +173,14 @@ class ConstantBody:
 
 @dataclass
 class _SyncCache:
+    """What the pybullet scene holds: the last state loaded whole (``layout``, ``data``) and
+    each observed object's features when its body was last built and posed (``rows``), all
+    valid for scene connection ``generation``."""
+
     generation: int = -1
     layout: Any = None
     data: Array = field(default_factory=lambda: np.zeros(0))
+    rows: dict[str, Array] = field(default_factory=dict)
 
 
 class ResetError(RuntimeError):
@@ -346,21 +352,34 @@ class Kinematic3DEnv(ObjectCentricEnv):
         self._sync(state)
         return self._scene.pinch_pose()
 
-    def penetrations(self, state: ObjectCentricState) -> list[tuple[str, str]]:
+    def penetrations(
+        self, state: ObjectCentricState, moving: Collection[str] | None = None
+    ) -> list[tuple[str, str]]:
         """Pairs of bodies that interpenetrate deeper than ``collision_tolerance`` in ``state``.
 
         Covers the robot against every collidable object and every pair of collidable objects
-        (observed and constant). A valid initial state has none.
+        (observed and constant). A valid initial state has none. With ``moving`` (names; the
+        robot is ``"robot"``), only the pairs with exactly one member in it are checked, those
+        a motion planner moving these bodies must test, and the rest are left out; the pairs
+        reported are the same as those of the full check that have one member in ``moving``.
         """
         self._sync(state)
         scene, tol = self._scene, self.config.collision_tolerance
         names = [n for n, c in self._constants.items() if c.spec.collide]
         names += [o.name for o in state if o.type in SOLID_TYPES]
         bodies = {n: scene.body(n) for n in names}
-        found = [("robot", n) for n, b in bodies.items() if scene.collides(scene.robot, [b], tol)]
+
+        def checked(a: str, b: str) -> bool:
+            return moving is None or ((a in moving) != (b in moving))
+
+        found = [
+            ("robot", n)
+            for n, b in bodies.items()
+            if checked("robot", n) and scene.collides(scene.robot, [b], tol)
+        ]
         for i, a in enumerate(names):
             for b in names[i + 1 :]:
-                if scene.collides(bodies[a], [bodies[b]], tol):
+                if checked(a, b) and scene.collides(bodies[a], [bodies[b]], tol):
                     found.append((a, b))
         return found
 
@@ -385,7 +404,13 @@ class Kinematic3DEnv(ObjectCentricEnv):
 
     # -- scene synchronisation ------------------------------------------------------------------
     def _sync(self, state: ObjectCentricState, force: bool = False) -> None:
-        """Load ``state`` into the pybullet scene (skipped when it already holds it)."""
+        """Load ``state`` into the pybullet scene (skipped when it already holds it).
+
+        An object whose features equal those it was last loaded with keeps its body and pose
+        (a motion planner's states differ from each other only in the robot and what it
+        carries): its body is a function of its features (``object_parts``, ``object_color``).
+        ``force`` (after a step has moved bodies itself) poses every object again.
+        """
         scene, cache = self._scene, self._sync_cache
         scene_client = scene.client  # connects if needed
         del scene_client
@@ -396,7 +421,9 @@ class Kinematic3DEnv(ObjectCentricEnv):
             and np.array_equal(cache.data, state.data)
         ):
             return
+        rows = cache.rows
         if cache.generation != scene.generation:
+            rows.clear()
             for name, const in self._constants.items():
                 scene.ensure_body(name, const.spec)
                 scene.set_pose(name, list(const.pos), list(const.quat))
@@ -407,6 +434,10 @@ class Kinematic3DEnv(ObjectCentricEnv):
                 scene.set_robot(f[_CONFIG], float(f[_FINGER]))
                 continue
             keep.add(obj.name)
+            last = rows.get(obj.name)
+            if not force and last is not None and np.array_equal(last, f):
+                continue
+            rows[obj.name] = f.copy()
             if obj.type == POINT_TYPE:
                 spec = BodySpec((), self.object_color(obj), collide=False, sphere_radius=0.05)
                 scene.ensure_body(obj.name, spec)
@@ -416,6 +447,8 @@ class Kinematic3DEnv(ObjectCentricEnv):
                 scene.ensure_body(obj.name, spec)
                 scene.set_pose(obj.name, f[:3], f[3:7])
         scene.remove_except(keep)
+        for name in [n for n in rows if n not in keep]:
+            del rows[name]
         cache.generation = scene.generation
         cache.layout = state.layout
         cache.data = state.data.copy()

@@ -261,7 +261,7 @@ class ConfigChecker:
                 self._self_collision[arm] = bool(self.env.self_collision(state))  # type: ignore[attr-defined]
             if self._self_collision[arm]:
                 return False
-        pairs = self.env.penetrations(state)  # type: ignore[attr-defined]
+        pairs = self.env.penetrations(state, self.moving)  # type: ignore[attr-defined]
         # Only contacts between something that moves and something that does not count.
         return all(
             (a in self.moving) == (b in self.moving)
