@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import os
@@ -182,6 +183,63 @@ def test_resume_after_killing_the_whole_process_group(toy_id: str, tmp_path: Pat
     assert resumed.num_ran == 12 - len(before)
     keys = [(r["seed"], r["episode"]) for r in load_records(run_dir)]
     assert sorted(keys) == [(s, e) for s in (0, 1) for e in range(6)]
+
+
+def _alive_children(parent: int, marker: str) -> list[int]:
+    """Live (not zombie) processes whose parent is ``parent`` and whose command line has
+    ``marker``, from /proc."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+            cmdline = (entry / "cmdline").read_bytes().decode(errors="replace")
+        except OSError:
+            continue
+        state, ppid = stat.rsplit(")", 1)[1].split()[:2]
+        if int(ppid) == parent and state != "Z" and marker in cmdline:
+            found.append(int(entry.name))
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="a Linux parent-death signal")
+def test_killing_the_run_alone_ends_its_pool_workers(toy_id: str, tmp_path: Path) -> None:
+    # `kill <pid>` of a run (not of its process group) must not leave its workers planning on.
+    run_dir = tmp_path / "run"
+    cmd = [
+        sys.executable, "-m", "kinder_bench", "bench", "run", "--env", toy_id,
+        "--agent", "kinder_bench_toy:SlowAgent", "--seeds", "0-1", "--episodes", "20",
+        "--out", str(run_dir), "--workers", "2", "--no-progress", "--no-report",
+        "--import", "kinder_bench_toy",
+    ]  # fmt: skip
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen(
+        cmd, env=env, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
+    results = run_dir / RESULTS_FILE
+    try:
+        while proc.poll() is None and (not results.exists() or results.read_text().count("\n") < 1):
+            time.sleep(0.05)
+        workers = _alive_children(proc.pid, "--multiprocessing-fork")
+        assert proc.poll() is None and len(workers) == 2, workers
+        proc.kill()
+        proc.wait()
+        deadline = time.monotonic() + 20.0
+        while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not any(_alive(w) for w in workers)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
 
 
 def test_agent_crash_is_recorded_as_a_failure(toy_id: str, tmp_path: Path) -> None:
