@@ -45,8 +45,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--timeout", type=float, default=400.0, help="wall seconds per plan")
     parser.add_argument("--max-steps", type=int, default=0, help="0: the runner's budget")
     args = parser.parse_args(argv)
+    env = make_object_centric(args.env)  # first: it registers the id's family
     max_steps = args.max_steps or PAPER_MAX_STEPS.get(args.env) or default_max_steps(args.env)
-    env = make_object_centric(args.env)
     rows: list[dict[str, Any]] = []
     goals: list[bool] = []
     cpus: list[float] = []
