@@ -35,13 +35,19 @@ agent is open-loop (no monitoring). When planning fails, the call that planned (
 of calls that raise, so the failed planning time is part of the episode's inference time.
 
 Everything random comes from the agent's seeded RNG, so an episode's plan is reproducible as
-long as no planning call reaches ``planning_timeout``. That budget is wall-clock seconds, as in the
-paper, so where a call is cut off depends on the machine's speed and load: the same seed can then
-give a different plan (or none) on a busier machine. ``planning_clock="process"`` counts the
-budget in the agent process's CPU seconds instead, which a busy machine does not shorten. For
-runs that must reproduce exactly in any process, bound the planner by simulated env steps
-instead (``max_model_steps``, counted over every skill rollout of the call) and lift the
-wall-clock budget (``planning_timeout=inf``).
+long as no planning call reaches ``planning_timeout`` and no motion-planning query inside a skill
+reaches its own cap. That budget is wall-clock seconds, as in the paper, so where a call is cut
+off depends on the machine's speed and load: the same seed can then give a different plan (or
+none) on a busier machine. ``planning_clock="process"`` counts the budget in the agent process's
+CPU seconds instead, which a busy machine does not shorten. ``max_model_steps`` bounds the
+planner by simulated env steps (counted over every skill rollout of the call; lift the
+wall-clock budget with ``planning_timeout=inf``). Neither makes every plan reproducible: the
+skills' motion planners (``kinder_gym.motion_planning``) stop each RRT-Connect attempt after a
+wall-clock ``timeout`` (0.5–2 s) as well as after ``max_iterations``, and an attempt cut off by
+time on a busy machine changes the plan. Planning KinematicShelf3D-o3 (development seed 1001)
+three times in one process with ``planning_clock="process"`` and a 600 s budget gave three
+different action sequences (343, 342 and 326 actions), all reaching the goal, on a busy
+machine; with the motion planners' wall-clock cap lifted, the three plans were identical.
 """
 
 from __future__ import annotations
