@@ -211,6 +211,32 @@ def test_process_clock_does_not_count_time_the_planner_waits(
     assert process.stats.time >= 0.3 * waits["n"]  # longer than the budget, on the wall clock
 
 
+@pytest.mark.parametrize(
+    ("clock", "counted_by"), [("wall", time.perf_counter), ("process", time.process_time)]
+)
+def test_skills_motion_planners_count_the_planners_clock(
+    monkeypatch: pytest.MonkeyPatch, clock: str, counted_by: Any
+) -> None:
+    """While BP plans, the skills' RRT-Connect attempts cap their time with BP's clock (so a
+    CPU-time budget is not undercut by wall-clock caps inside the skills); after, the default."""
+    import kinder_bench.baselines.bilevel_planning as bp
+    from kinder_gym import motion_planning
+
+    env, x0 = _toy()
+    seen = []
+    execute = bp.execute_skill
+
+    def recording_execute(*args: Any, **kwargs: Any) -> Any:
+        seen.append(motion_planning.cap_clock())
+        return execute(*args, **kwargs)
+
+    monkeypatch.setattr(bp, "execute_skill", recording_execute)
+    planner = BilevelPlanner(make_toy_model(env), BilevelPlanningArgs(planning_clock=clock))
+    assert planner.plan(x0, np.random.default_rng(0)) is not None
+    assert seen and all(c is counted_by for c in seen)
+    assert motion_planning.cap_clock() is time.perf_counter
+
+
 def test_planning_clock_at_its_default_leaves_run_ids_unchanged() -> None:
     """Runs recorded before the option existed keep their ids (and so resume)."""
     from kinder_bench.evaluation.runner import RunConfig, resolve_run, run_id

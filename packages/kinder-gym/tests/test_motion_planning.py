@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
 from kinder_gym.motion_planning import (
+    cap_clock,
     interpolate_path,
     path_valid,
     plan_joint_space,
     plan_se2,
+    timeouts_counted_by,
     wrap_angle,
 )
 
@@ -30,6 +33,24 @@ def test_se2_plan_goes_through_the_gap_and_is_deterministic() -> None:
     assert path_valid(path, _wall_with_gap, np.array([0.01, 0.01, 0.05]), wrap_dims=(2,))
     again = plan_se2(start, goal, _wall_with_gap, bounds, seed=3)
     assert again is not None and all(np.array_equal(a, b) for a, b in zip(path, again))
+
+
+def test_attempt_timeouts_count_the_clock_in_force() -> None:
+    """RRT-Connect attempts stop after ``timeout`` seconds of :func:`cap_clock`: a clock that
+    jumps 10 s per reading ends every attempt at once, a stopped one never does, and the
+    default (wall-clock) comes back after the block."""
+    start, goal = [0.3, 0.3, 0.0], [2.3, 0.3, 1.0]
+    bounds = ((0.0, 2.5), (0.0, 2.5))
+    ticks = iter(range(0, 10**6, 10))
+    with timeouts_counted_by(lambda: float(next(ticks))):
+        assert plan_se2(start, goal, _wall_with_gap, bounds, seed=3, timeout=1.0) is None
+    with timeouts_counted_by(lambda: 0.0):
+        stopped = plan_se2(start, goal, _wall_with_gap, bounds, seed=3, timeout=1e-9)
+    assert stopped is not None and all(
+        np.array_equal(a, b)
+        for a, b in zip(stopped, plan_se2(start, goal, _wall_with_gap, bounds, seed=3))
+    )
+    assert cap_clock() is time.perf_counter
 
 
 def test_straight_line_when_free_and_none_when_blocked() -> None:

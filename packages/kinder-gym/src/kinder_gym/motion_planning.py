@@ -6,7 +6,9 @@ geometry, never OMPL's). A query
 1. rejects an invalid start or goal,
 2. returns the straight segment when it is valid (most queries in open scenes),
 3. otherwise runs OMPL's RRT-Connect (seeded, so the same query gives the same path) for up to
-   ``attempts`` tries,
+   ``attempts`` tries, each stopped after ``max_iterations`` or ``timeout`` seconds of the
+   current :func:`cap_clock` (wall-clock by default; an attempt cut off by time depends on the
+   machine's speed and load),
 4. verifies every segment of the result with our own checker at our own resolution
    (``max_step`` per dimension) and shortcuts it with a seeded random shortcutter.
 
@@ -19,7 +21,9 @@ follow it with one action per waypoint.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import math
+import time
 from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
@@ -27,6 +31,28 @@ from numpy.typing import ArrayLike, NDArray
 
 FloatArray = NDArray[np.float64]
 ValidityFn = Callable[[FloatArray], bool]
+
+
+_CAP_CLOCK: contextvars.ContextVar[Callable[[], float]] = contextvars.ContextVar(
+    "motion_planning_cap_clock", default=time.perf_counter
+)
+
+
+def cap_clock() -> Callable[[], float]:
+    """The clock that RRT-Connect attempts' ``timeout`` counts here (``time.perf_counter``
+    unless :func:`timeouts_counted_by` set another)."""
+    return _CAP_CLOCK.get()
+
+
+@contextlib.contextmanager
+def timeouts_counted_by(clock: Callable[[], float]) -> Iterator[None]:
+    """Within the block, RRT-Connect attempts' ``timeout`` counts ``clock``'s seconds (say
+    ``time.process_time``: CPU seconds, which a busy machine does not shorten)."""
+    token = _CAP_CLOCK.set(clock)
+    try:
+        yield
+    finally:
+        _CAP_CLOCK.reset(token)
 
 
 def params_seed(params: FloatArray, salt: int) -> int:
@@ -209,18 +235,17 @@ def _rrt_connect(
     ss.setStartAndGoalStates(to_ompl(start), to_ompl(goal))
     ss.setPlanner(og.RRTConnect(si))
     iterations = [0]
+    clock = cap_clock()
+    end = clock() + float(timeout)
 
-    def stop() -> bool:
+    def stop() -> bool:  # evaluated by OMPL at every iteration
         iterations[0] += 1
-        return iterations[0] > max_iterations
+        return iterations[0] > max_iterations or clock() > end
 
     # OMPL derives every sampler's seed from this global seed: re-seeding per query makes the
     # query deterministic (OMPL logs a harmless complaint, silenced here).
     ou.RNG.setSeed(int(seed) % (2**31 - 1) + 1)
-    ptc = ob.plannerOrTerminationCondition(
-        ob.timedPlannerTerminationCondition(float(timeout)), ob.PlannerTerminationCondition(stop)
-    )
-    solved = ss.solve(ptc)
+    solved = ss.solve(ob.PlannerTerminationCondition(stop))
     if not ss.haveExactSolutionPath() or not bool(solved):
         return None
     path = [to_np(s) for s in ss.getSolutionPath().getStates()]
@@ -303,7 +328,7 @@ def plan_se2(
         bounds: ``((x_min, x_max), (y_min, y_max))`` for sampling, in metres.
         max_step: Collision-checking resolution per dimension (metres, metres, radians).
         seed: Makes the query deterministic.
-        timeout: Wall-clock seconds per RRT-Connect attempt.
+        timeout: Seconds per RRT-Connect attempt, of :func:`cap_clock` (wall-clock by default).
         max_iterations: RRT-Connect iterations per attempt.
         attempts: RRT-Connect attempts (each with a new seed) before giving up.
         shortcut_iterations: Random shortcut tries on the found path.

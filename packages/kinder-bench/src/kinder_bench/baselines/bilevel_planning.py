@@ -36,18 +36,19 @@ of calls that raise, so the failed planning time is part of the episode's infere
 
 Everything random comes from the agent's seeded RNG, so an episode's plan is reproducible as
 long as no planning call reaches ``planning_timeout`` and no motion-planning query inside a skill
-reaches its own cap. That budget is wall-clock seconds, as in the paper, so where a call is cut
-off depends on the machine's speed and load: the same seed can then give a different plan (or
-none) on a busier machine. ``planning_clock="process"`` counts the budget in the agent process's
-CPU seconds instead, which a busy machine does not shorten. ``max_model_steps`` bounds the
-planner by simulated env steps (counted over every skill rollout of the call; lift the
-wall-clock budget with ``planning_timeout=inf``). Neither makes every plan reproducible: the
-skills' motion planners (``kinder_gym.motion_planning``) stop each RRT-Connect attempt after a
-wall-clock ``timeout`` (0.5–2 s) as well as after ``max_iterations``, and an attempt cut off by
-time on a busy machine changes the plan. Planning KinematicShelf3D-o3 (development seed 1001)
-three times in one process with ``planning_clock="process"`` and a 600 s budget gave three
-different action sequences (343, 342 and 326 actions), all reaching the goal, on a busy
-machine; with the motion planners' wall-clock cap lifted, the three plans were identical.
+reaches its own time cap (``kinder_gym.motion_planning`` stops each RRT-Connect attempt after
+``max_iterations`` or a ``timeout`` of 0.5–2 s). Both count the planner's clock. With the
+paper's wall-clock seconds, where a call or an attempt is cut off depends on the machine's speed
+and load: the same seed can then give a different plan (or none) on a busier machine; planning
+KinematicShelf3D-o3 (development seed 1001, 600 s budget) three times in one process on a busy
+machine, with the motion planners' caps on the wall clock, gave three different action sequences
+(343, 342 and 326 actions). ``planning_clock="process"`` counts both in the agent process's CPU
+seconds instead, which a busy machine does not shorten (a variant: not the paper's setting): the
+same three plans then gave one action sequence (340 actions). For runs that must
+reproduce exactly in any process, bound the planner by simulated env steps
+(``max_model_steps``, counted over every skill rollout of the call) and lift the wall-clock
+budget (``planning_timeout=inf``); an RRT-Connect attempt that reaches its time cap still
+depends on the machine's speed.
 """
 
 from __future__ import annotations
@@ -71,6 +72,7 @@ from kinder_bench.baselines.bilevel_search import (
     abstract_plans,
 )
 from kinder_core import ObjectCentricEnv, ObjectCentricState
+from kinder_gym import motion_planning
 from kinder_gym.concepts import GroundAtom
 from kinder_gym.model import PlanningModel, abstract_match
 from kinder_gym.models import model_for, use_model
@@ -226,7 +228,9 @@ class BilevelPlanner:
         start = time.perf_counter()
         deadline = self._clock() + self.args.planning_timeout
         try:
-            return self._plan(x0, rng, deadline)
+            # The skills' motion planners cap their attempts with the planner's own clock.
+            with motion_planning.timeouts_counted_by(self._clock):
+                return self._plan(x0, rng, deadline)
         finally:
             self.stats.time = time.perf_counter() - start
 
