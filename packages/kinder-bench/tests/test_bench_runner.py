@@ -154,23 +154,33 @@ def test_resume_after_interrupt_loses_nothing_and_repeats_nothing(
     assert _strip(resumed.records) == _strip(reference.records)
 
 
-def test_resume_after_killing_the_whole_process_group(toy_id: str, tmp_path: Path) -> None:
-    # The hardest interruption: SIGKILL to the CLI and its pool workers in the middle of a run.
-    run_dir = tmp_path / "run"
+def _start_slow_run(toy_id: str, run_dir: Path, episodes: int) -> subprocess.Popen[bytes]:
+    """`kinder bench run` of the slow toy agent (2 seeds, 2 pool workers) in its own session."""
     cmd = [
         sys.executable, "-m", "kinder_bench", "bench", "run", "--env", toy_id,
-        "--agent", "kinder_bench_toy:SlowAgent", "--seeds", "0-1", "--episodes", "6",
+        "--agent", "kinder_bench_toy:SlowAgent", "--seeds", "0-1", "--episodes", str(episodes),
         "--out", str(run_dir), "--workers", "2", "--no-progress", "--no-report",
         "--import", "kinder_bench_toy",
     ]  # fmt: skip
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    proc = subprocess.Popen(
+    return subprocess.Popen(
         cmd, env=env, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
     )
+
+
+def _wait_for_records(proc: subprocess.Popen[bytes], run_dir: Path, count: int) -> None:
+    """Until the run has written ``count`` records (or ended)."""
     results = run_dir / RESULTS_FILE
+    while proc.poll() is None and (not results.exists() or results.read_text().count("\n") < count):
+        time.sleep(0.05)
+
+
+def test_resume_after_killing_the_whole_process_group(toy_id: str, tmp_path: Path) -> None:
+    # The hardest interruption: SIGKILL to the CLI and its pool workers in the middle of a run.
+    run_dir = tmp_path / "run"
+    proc = _start_slow_run(toy_id, run_dir, 6)
     try:
-        while proc.poll() is None and (not results.exists() or results.read_text().count("\n") < 3):
-            time.sleep(0.05)
+        _wait_for_records(proc, run_dir, 3)
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
@@ -214,20 +224,9 @@ def _alive(pid: int) -> bool:
 def test_killing_the_run_alone_ends_its_pool_workers(toy_id: str, tmp_path: Path) -> None:
     # `kill <pid>` of a run (not of its process group) must not leave its workers planning on.
     run_dir = tmp_path / "run"
-    cmd = [
-        sys.executable, "-m", "kinder_bench", "bench", "run", "--env", toy_id,
-        "--agent", "kinder_bench_toy:SlowAgent", "--seeds", "0-1", "--episodes", "20",
-        "--out", str(run_dir), "--workers", "2", "--no-progress", "--no-report",
-        "--import", "kinder_bench_toy",
-    ]  # fmt: skip
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    proc = subprocess.Popen(
-        cmd, env=env, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
-    )
-    results = run_dir / RESULTS_FILE
+    proc = _start_slow_run(toy_id, run_dir, 20)
     try:
-        while proc.poll() is None and (not results.exists() or results.read_text().count("\n") < 1):
-            time.sleep(0.05)
+        _wait_for_records(proc, run_dir, 1)
         workers = _alive_children(proc.pid, "--multiprocessing-fork")
         assert proc.poll() is None and len(workers) == 2, workers
         proc.kill()
