@@ -1,18 +1,20 @@
 """The contact depth MuJoCo reports for a 2 cm box overlapping a box and a plane by 1 mm.
 
-Upstream kindergarden 0.2.5 runs on MuJoCo 3.3.7, this project on MuJoCo 4.0.0. Their box-box
+Upstream kindergarden 0.2.5 runs on MuJoCo 3.3.7; this project ran on MuJoCo 4.0.0 before it
+pinned upstream's version (any 4.x interpreter shows the other side). Their box-box
 colliders differ: for a box whose face overlaps another box's face by 1 mm, 3.3.7 reports a
 contact distance of -0.5 mm, 4.0.0 of -1 mm (box-plane contacts report -1 mm on both). The
 constraint's spring acts on the reported depth, so in 3.3.7 every box-box contact (a block on a
 table top, on another block, against a bin wall) is about half as stiff against the real overlap:
 resting blocks sink about 0.1 mm deeper and dropped blocks bounce less. This is what makes
 SortClutteredBlocks3D-o20's pile of twenty dropped blocks spread less, stack more, and knock a bin
-less often in upstream's resets than in ours (``tools/conformance/table.py``, its "differs" row).
+less often in upstream's resets than in ours did on 4.0.0 (``tools/conformance/table.py``).
 
-Run it with each interpreter to compare the versions:
+Run it with interpreters that have each version to compare them (``uv run --with mujoco==4.0.0``
+gives one with 4.0.0):
 
     .venv/bin/python benchmarks/probes/box_contact_depth.py
-    .venv-upstream/bin/python benchmarks/probes/box_contact_depth.py
+    uv run --no-project --with mujoco==4.0.0 python benchmarks/probes/box_contact_depth.py
 """
 
 from __future__ import annotations

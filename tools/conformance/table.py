@@ -72,31 +72,25 @@ CATEGORY_DEVIATIONS: dict[str, str] = {
     "Dynamic2D": "The PushT goal compares the wrapped angle difference (upstream compares raw "
     "angles); a held scoop is attached with the robot already in place.",
     "Dynamic3D": "The arm's PD runs every physics step (upstream holds one torque per action: "
-    "Dynamic3DConfig(arm_control='held_torque')); 1 ms physics steps; the primitive-shape "
-    "robot and gripper.",
+    "Dynamic3DConfig(arm_control='held_torque')); the primitive-shape robot and gripper.",
 }
 #: What holds for a whole category, printed above its table.
 CATEGORY_NOTES: dict[str, str] = {
-    "Dynamic3D": "**Simulator version.** Upstream 0.2.5 requires `mujoco~=3.3.0` (3.3.7 in its "
-    "venv); the lock gives ours MuJoCo 4.0.0. The two report box-box contacts differently: two "
-    "boxes overlapping 1 mm face to face give a contact depth of -0.5 mm in 3.3.7 and -1 mm in "
-    "4.0.0 (a box on a plane -1 mm in both; `benchmarks/probes/box_contact_depth.py`), so "
-    "upstream's block-on-block, block-on-table and block-in-bin contacts are softer. It is the "
-    "measured cause of the one id that differs (SortClutteredBlocks3D-o20 into bins: run on "
-    "3.3.7, our env matches upstream); upstream's cubes resting about 0.1 mm deeper and its "
-    "heavy piles sinking millimetres deeper (ScoopPour3D) look like the same softness, not "
-    "checked id by id. Moving to 3.3.7 needs "
-    "mink 1.1.0 (mink 1.3 requires MuJoCo 3.10 or later). Tried with commit 119b5a5 (whose "
-    "drawers no longer touch their own fixture on 3.3.7, which welds mocap bodies to the world), "
-    "408 of kinder-garden3d's 409 default tests pass on 3.3.7; the one that fails is "
-    "ScoopPour3D-o10's reset distribution: on seed 1008 a cube dropped from 20 cm passes through "
-    "the yellow bin's 2 cm floor (3.3.7's half-depth contact pushes back too weakly before the "
-    "cube's centre crosses the floor's mid-plane) and lifts the bin 6.6 mm. On 3.3.7 that "
-    "happened on 1 of our 100 resets (seeds 1000-1099) and on none of 249 upstream resets "
-    "(seeds 0-236 and 1000-1011; measured 2026-11-28), too few to tell whether upstream's "
-    "cubes can do the same. Stiffer cube "
-    "contacts would stop that but change 4.0.0's resting heights, so the default stays 4.0.0 "
-    "until the move is made as a whole, with the Dynamic3D results measured again.",
+    "Dynamic3D": "**Simulator and physics step.** Dynamic3D runs on upstream's simulator and "
+    "step: MuJoCo 3.3 (upstream 0.2.5 requires `mujoco~=3.3.0`; the lock has 3.3.7, as "
+    "upstream's venv, and mink 1.1.0, the last mink for MuJoCo 3.3) at 0.5 ms, 200 steps per "
+    "action. Until commit fc661ba it ran on MuJoCo 4.0.0 at 1 ms, with two measured "
+    "differences: 4.0.0 reports two boxes overlapping 1 mm face to face at a contact depth of "
+    "-1 mm where 3.3.7 reports -0.5 mm (a box on a plane -1 mm in both; "
+    "`benchmarks/probes/box_contact_depth.py`), so block-on-block, block-on-table and "
+    "block-in-bin contacts were stiffer than upstream's and SortClutteredBlocks3D-o20's twenty "
+    "dropped blocks bounced further than upstream's; and 3.3.7 at 1 ms let a 1 cm cube dropped "
+    "20 cm cross ScoopPour3D-o10's 2 cm bin floor (1 of our resets 1000-1099; at 0.5 ms none, "
+    "upstream none of 249). `Dynamic3DConfig(timestep=0.001, substeps=100)` keeps the 1 ms "
+    "step as an option, about twice as fast. The scene turns on MuJoCo's `multiccd` (several "
+    "contact points between convex shapes): on 3.3.7 without it our cylinder can, a stand-in "
+    "for upstream's mesh can, keeps rocking on the island after the settle (Rearrange3D-o2: up "
+    "to 0.28 rad/s, upstream's at rest).",
 }
 DEVIATIONS: dict[str, str] = {
     "ClutteredRetrieval2D": "The robot start's free-space component is found on a 0.02 grid, "
@@ -141,43 +135,30 @@ DEVIATIONS: dict[str, str] = {
     "note above is the mobile manipulator's); its settled elbow is 2.1e-5 rad from upstream's "
     "(compared to 1e-4 in the test); the gripper is the primitive 2F-85 stand-in (force-limited "
     "pads; upstream: a tendon-driven four-bar linkage).",
-    "SortClutteredBlocks3D": "Every variant has upstream's layout. Our dropped blocks bounce "
-    "further and stack up to three high (upstream's two; upstream's MuJoCo 3.3.7 reports half the "
-    "overlap of two boxes as their contact depth, which softens its block contacts): their "
-    "positions are compared by the KS test alone. Upstream's generated bowl collides as the convex "
-    "hull of its mesh, a solid dome that rocks and spins after the settle and on whose top a block "
-    "rests; ours is a hollow primitive bowl at rest: the bowls' tilt and velocities and the "
-    "blocks' angular velocities (upstream's pile of twenty still turns) are left out, the bowls' "
-    "height and yaw compared by the KS test alone, and one step of upstream's rocking bowls moves "
-    "them up to 1.8 mm (objects tolerance 3e-3 m). Upstream places o12's floor objects without a "
-    "collision check, so a 70 cm rod may rest across a 4 cm cube; ours redraws until nothing "
-    "overlaps (height and tilt by the KS test alone). Kept option: half_size_objects (o12's "
-    "earlier 2 cm cubes and 35 cm rods).",
+    "SortClutteredBlocks3D": "Every variant has upstream's layout. Our dropped blocks spread a "
+    "little wider than upstream's (o4: x -0.047..0.058 m over 100 seeds, upstream -0.038..0.035 m "
+    "over 40; both at most two high), and now and then one knocks a bin (o20 into bins, over 200 "
+    "seeds: a bin pushed over 2 mm in 4 of ours and 2 of upstream's): the blocks' positions, and "
+    "o20's bins, are compared by the KS test alone. Upstream's generated bowl collides as the "
+    "convex hull of its mesh, a solid dome that rocks and spins after the settle and on whose "
+    "top a block rests; ours is a hollow primitive bowl at rest: the bowls' tilt and "
+    "velocities and the blocks' angular velocities (upstream's pile of twenty still turns) "
+    "are left out, the bowls' height and yaw compared by the KS test alone, and one step of "
+    "upstream's rocking bowls moves them up to 1.8 mm (objects tolerance 3e-3 m). Upstream "
+    "places o12's floor objects without a collision check, so a 70 cm rod may rest across a "
+    "4 cm cube; ours redraws until nothing overlaps (height and tilt by the KS test alone). "
+    "Kept option: half_size_objects (o12's earlier 2 cm cubes and 35 cm rods).",
     "Shelf3D": "Variants o2-o8: upstream starts some cubes partly below the floor and places the "
     "robot without keeping it clear of them, so now and then a cube comes out of the settle "
     "turned or knocked (ours never): the cubes are compared by the KS test alone; where "
     "upstream's robot starts over a cube, our primitive base touches it and upstream's mesh base "
-    "does not (o2, o8: objects tolerance 0.06 m).",
+    "does not (objects tolerance 0.06 m on o2, 0.07 m on o8).",
 }
 #: Registered ids with no conformance fixture, and why.
 UNCOVERED: dict[str, str] = {}
 #: Registered ids whose fixture is recorded but which do not conform yet, and how (no test
 #: hides them: the row says "differs").
-KNOWN_DIFFERENCES: dict[str, str] = {
-    "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bins-v0": "our twenty "
-    "dropped blocks bounce further than upstream's: over 200 seeds each, a block ends against a "
-    "bin in 4.5% of ours (upstream 2.0%), a bin is pushed over 2 mm in 6 (upstream 2; at most "
-    "6.6 mm, upstream 2.9 mm) and turned over 5 mrad in 12 (upstream 4); fewer of ours still "
-    "turn (32% of the blocks over 5 mrad/s, upstream 45%): the pooled blocks' wy fails the KS "
-    "test (0.108 > 0.082 on 100 seeds), and the knocked bins the ranges of upstream's 40 recorded "
-    "seeds, which hold none. The cause is the simulator: upstream's MuJoCo 3.3.7 reports half "
-    "the overlap of two boxes as their contact depth (4.0.0 all of it; "
-    "benchmarks/probes/box_contact_depth.py), so its block-block, block-table and block-bin "
-    "contacts are softer; our env run unchanged on 3.3.7 matches upstream (a block against a "
-    "bin in 2.0% of 100 seeds, 48% still turning, every feature within the test's rules). "
-    "Upstream's 0.5 ms step, its condim 3 and its drop height (the block's centre, not its "
-    "bottom, 0-20 cm above the table) change none of this. Fixture recorded, no test",
-}
+KNOWN_DIFFERENCES: dict[str, str] = {}
 HEADER = """# Conformance to upstream kindergarden 0.2.5
 
 Generated by `.venv/bin/python tools/conformance/table.py` from the conformance tests' own

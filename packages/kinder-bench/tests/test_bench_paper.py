@@ -297,7 +297,7 @@ def test_a_run_measured_before_its_env_followed_upstream_is_a_variant(
     # The same run id on another env, another run on that env, or the same run made again on
     # the changed env (same run id, another summary file) is not listed.
     assert PRE_CONFORMANCE not in protocol_deviations(dataclasses.replace(old, run_id="0" * 12))
-    again = dataclasses.replace(old, summary="bp_conforming_summary.csv")
+    again = dataclasses.replace(old, summary="a_later_summary.csv")
     assert PRE_CONFORMANCE not in protocol_deviations(again)
     header = "run_id,env_id,changed_at,summary\n"
     assert parse_pre_conformance(header + "# a comment\nabc,kinder/X-v0,78dd850,a.csv\n") == {

@@ -67,11 +67,11 @@ max 0.142; objects 4.6e-4.
 SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins (recorded the same way): the four
 2 cm blocks dropped into a 7 x 7 cm pile are exchangeable and pooled; which face a tumbling block
 lands on is chance, so their orientation and velocities are compared by the KS test alone. Ours
-bounce off one another further than upstream's (x -0.045..0.062 m and up to three high over 100
-seeds, upstream -0.038..0.035 m and two high over 40): their positions too are compared by the KS
-test alone (a kept deviation of the primitive contacts). One-step errors: base median
-1.3e-4, max 2.5e-4; arm median 0.028, max 0.044; gripper max 0.009; objects 1.0e-4 (the fixture
-keeps the first 14 steps of two of the three random trajectories).
+spread a little wider than upstream's (x -0.047..0.058 m over 100 seeds, upstream -0.038..0.035 m
+over 40; both at most two high; on MuJoCo 4.0.0 at 1 ms ours stacked three high): their positions
+too are compared by the KS test alone (a kept deviation of the primitive contacts). One-step
+errors: base median 1.3e-4, max 2.5e-4; arm median 0.028, max 0.044; gripper max 0.009; objects
+1.0e-4 (the fixture keeps the first 14 steps of two of the three random trajectories).
 
 SortClutteredBlocks3D-o12-sort_the_blocks_into_the_cupboard (recorded with ``--seeds 40 --full 5
 --random 2 --steps 15``; the fixture keeps the 15 steps of the first trajectory): upstream places
@@ -80,6 +80,11 @@ the floor objects without a collision check, so a 70 cm rod may come to rest acr
 placements); ours draws again until nothing overlaps (a kept deviation): the objects' height and
 tilt are compared by the KS test alone. One-step errors: base median 1.2e-4, max 2.4e-4; arm
 median 0.025, max 0.037; gripper max 0.010; objects 4e-8.
+SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bins (recorded the same way), checked
+under o4's rules: its twenty blocks pooled and compared by the KS test alone, and its bins too
+(x, y, yaw, tilt, velocities): a falling block now and then knocks a bin, over 200 seeds by more
+than 2 mm in 4 of ours (at most 5.8 mm) and 2 of upstream's (at most 2.9 mm), turning it more
+than 5 mrad in 5 of ours and 4 of upstream's, and none of upstream's 40 recorded seeds has one.
 SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bowls (recorded the same way; the
 fixture keeps 2 full reset vectors, the first 5 steps of the first trajectory, and its
 distribution samples rounded to 1e-4, below the comparison's resolution, to stay under 200 KB):
@@ -145,8 +150,10 @@ rules, keyed by family name, beside the id rules above:
   the cubes; now and then a cube comes out of the settle turned or knocked (1 cube in 30 seeds on
   o3, 2 on o6; none of ours), so the cubes are compared by the KS test alone. In the random
   trajectories of o2 and o8 upstream's robot starts 0.26 m and 0.11 m from a cube, which our
-  primitive base touches and upstream's mesh base does not: objects median 0.02, max 0.06
-  (measured median 0.010 / 0.016, max 0.043 / 0.059; the other groups as on o1).
+  primitive base touches and upstream's mesh base does not: objects median 0.02, max 0.06 on o2
+  and median 0.03, max 0.07 on o8 (measured on MuJoCo 3.3.7 at 0.5 ms: o8 median 0.015 over
+  one step and 0.024 over the first steps, max 0.064; on MuJoCo 4.0.0 at 1 ms o2 median
+  0.010, max 0.043 and o8 median 0.016, max 0.059; the other groups as on o1).
 * ConstrainedCupboard3D o2-o6: the rods are dropped from up to 10 cm (``drop: centre``, as
   upstream's ground sampler) and, on both sides, now and then one lands across another; which
   one and how it tilts is chance at 30 seeds, so the rods' heights, orientations and velocities
@@ -250,6 +257,7 @@ VARIANT_IDS = (
     "ScoopPour3D-o40",
     "ScoopPour3D-o50",
     "ScoopPour3D-o100",
+    "SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bins",
 )
 SETTLE_ATOL = 1e-9  # float rounding after the resolution
 CONST_ATOL = 1e-6
@@ -267,6 +275,7 @@ POOLED = {
     "ScoopPour3D": "cube_",
     "SweepSimple3D": "cube_",
     "kinder/SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins-v0": "cube",
+    "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bins-v0": "cube",
     "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bowls-v0": "cube",
     "kinder/SweepIntoDrawer3D-o5-v0": "cube_",
     "kinder/BalanceBeam3D-o3-v0": "small_block_",
@@ -292,6 +301,11 @@ POOLED_TAILS = {
     },
     "kinder/SortClutteredBlocks3D-o4-sort_the_cluttered_blocks_into_bins-v0": {
         f"cube*.{f}"
+        for f in ("x", "y", "z", "qw", "qx", "qy", "qz", "wx", "wy", "wz", "vx", "vy", "vz")
+    },
+    "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bins-v0": {
+        f"{o}*.{f}"
+        for o in ("cube", "bin")
         for f in ("x", "y", "z", "qw", "qx", "qy", "qz", "wx", "wy", "wz", "vx", "vy", "vz")
     },
     "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bowls-v0": {
@@ -374,7 +388,7 @@ HEIGHT_SHIFT = {
 #: Per-id one-step tolerances that replace ``STEP_TOL``'s for some groups (module docstring).
 STEP_TOL_BY_ID = {
     "kinder/Shelf3D-o2-v0": {"objects": (0.02, 0.06)},
-    "kinder/Shelf3D-o8-v0": {"objects": (0.02, 0.06)},
+    "kinder/Shelf3D-o8-v0": {"objects": (0.03, 0.07)},
     "kinder/Rearrange3D-o1-put_the_boxed_drink_next_to_the_bowl-v0": {"arm": (0.04, 0.25)},
     "kinder/Dynamo3D-o1-v0": {"objects": (1e-3, 0.05)},
     "kinder/SortClutteredBlocks3D-o20-sort_the_cluttered_blocks_into_bowls-v0": {

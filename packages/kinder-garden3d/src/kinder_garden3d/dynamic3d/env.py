@@ -64,9 +64,11 @@ class Dynamic3DConfig:
     """Physical and sampling constants shared by every Dynamic3D task.
 
     Attributes:
-        timestep: MuJoCo physics step (s). Upstream uses 0.5 ms; 1 ms halves the cost at the
-            same simulated time per action (``timestep=0.0005, substeps=200`` restores it).
-        substeps: Physics steps per action (100 × 1 ms = 0.1 s, i.e. 10 Hz control).
+        timestep: MuJoCo physics step (s): upstream's 0.5 ms. ``timestep=0.001, substeps=100``
+            keeps 0.1 s per action at about half the cost, but a falling object then moves
+            twice as far into what it hits per step (on MuJoCo 3.3 a 1 cm cube dropped 20 cm
+            into ScoopPour3D's bin crossed its 2 cm floor in 1 of 100 resets); off by default.
+        substeps: Physics steps per action (200 × 0.5 ms = 0.1 s, i.e. 10 Hz control).
         settle_actions: All-zero actions applied at reset before the first observation.
         max_base_delta: Bound of the base deltas (m for x, y; rad for yaw).
         max_arm_delta: Bound of the arm joint deltas (rad).
@@ -94,8 +96,8 @@ class Dynamic3DConfig:
             the bundled ones). An option the task does not offer is an error.
     """
 
-    timestep: float = 0.001
-    substeps: int = 100
+    timestep: float = 0.0005
+    substeps: int = 200
     settle_actions: int = 10
     max_base_delta: float = 0.1
     max_arm_delta: float = 0.1
@@ -159,9 +161,12 @@ class Dynamic3DEnv(ObjectCentricEnv):
     this one class; tasks differ only in their task files (`tasks/<Family>/*.json`: fixtures,
     objects, regions, cameras, initial-state and goal predicates). The robot has a holonomic
     base (position servo), a 7-DoF Kinova Gen3 arm (joint PD torque control with gravity
-    compensation) and a two-finger Robotiq 2F-85-style gripper. Physics: MuJoCo, 1 ms steps,
-    100 steps per action (0.1 s of simulated time, 10 Hz control), elliptic friction cones with
-    `impratio = 10` (the contact settings of upstream's robot models). Every fixture and object
+    compensation) and a two-finger Robotiq 2F-85-style gripper. Physics: MuJoCo 3.3 (upstream's
+    `mujoco~=3.3.0`), 0.5 ms steps, 200 steps per action (0.1 s of simulated time, 10 Hz
+    control), elliptic friction cones with `impratio = 10` (the contact settings of upstream's
+    robot models) and MuJoCo's `multiccd` (several contact points between convex shapes: our
+    cylinder stand-ins, the can, stand still on a table as upstream's mesh can does, where
+    MuJoCo 3.3's one point lets them rock). Every fixture and object
     is built from primitive shapes.
 
     ## Observation Space
@@ -217,9 +222,6 @@ class Dynamic3DEnv(ObjectCentricEnv):
     None.
 
     ## Deviations
-    * Physics steps are 1 ms (100 per action) instead of 0.5 ms (200 per action): the same 0.1 s
-      per action at half the cost; `Dynamic3DConfig(timestep=0.0005, substeps=200)` restores
-      upstream's integration step.
     * Assets are primitive stand-ins (no RoboCasa/MimicLabs meshes, no lab backdrop); the robot
       is the project's primitive-shape TidyBot++ model. Sizes follow environments.md §5.
     * The arm PD runs inside MuJoCo (position actuators with kv) at every physics step and

@@ -41,8 +41,9 @@ class Franka3DEnv(Dynamic3DEnv):
     Research 3 7-DoF arm (joint position servos, upstream's gains) with a Robotiq 2F-85-style
     two-finger gripper, bolted on the task's `robot.mount_surface` table. The arm's kinematics
     are Franka's published values and its shapes are primitives (`robot/fr3.py`). Physics:
-    MuJoCo, 1 ms steps, 100 steps per action (0.1 s, 10 Hz control), MuJoCo's default pyramidal
-    friction cone and `impratio = 1` (as upstream's FR3 scenes).
+    MuJoCo 3.3, 0.5 ms steps, 200 steps per action (0.1 s, 10 Hz control), MuJoCo's default
+    pyramidal friction cone and `impratio = 1` (as upstream's FR3 scenes), `multiccd` as every
+    Dynamic3D task.
 
     ## Observation Space
     All objects sorted by name, each with its type's features. Movable objects (16):
@@ -83,8 +84,6 @@ class Franka3DEnv(Dynamic3DEnv):
     `FRANKA_CONFIG_DEFAULTS`, then the dataclass defaults). `render_mode`: `"rgb_array"` or None.
 
     ## Deviations
-    * Physics steps are 1 ms (100 per action) instead of 0.5 ms (200 per action), as in every
-      Dynamic3D task; `Dynamic3DConfig(timestep=0.0005, substeps=200)` restores upstream's.
     * The arm is built from capsules and cylinders around Franka's published kinematic chain
       (link frames agree with upstream's `fr3.xml` to 1e-15), not from Franka's meshes; joint
       damping, armature and friction loss are upstream's.

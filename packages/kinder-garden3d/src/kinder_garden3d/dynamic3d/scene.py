@@ -281,7 +281,7 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int], arm_motors: bool = 
     width, height = image_size
     xml = f"""<mujoco model="kinder_{task.family}">
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="0.001" integrator="implicitfast"/>
+  <option timestep="0.0005" integrator="implicitfast"><flag multiccd="enable"/></option>
   <statistic extent="3" center="1 0 0.5"/>
   <visual>
     <global offwidth="{max(width, 640)}" offheight="{max(height, 480)}"/>
