@@ -4,6 +4,7 @@ the committed Motion2D-p0 fixture of kinder-gym)."""
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
 import os
 import tempfile
@@ -21,6 +22,7 @@ from kinder_bench.agents import make_agent
 from kinder_bench.cli import app
 from kinder_bench.demos.collection import (
     ATTEMPTS_FILE,
+    CONFIG_FILE,
     CollectConfig,
     build_dataset,
     collect,
@@ -86,6 +88,13 @@ def test_collect_is_resumable_and_independent_of_the_executor(tmp_path: Path) ->
             executor="inline",
             progress=False,
         )
+    # So is the same one on other simulator versions (their transitions differ).
+    recorded = json.loads((tmp_path / "a" / CONFIG_FILE).read_text())
+    assert recorded["simulators"]["pymunk"] == importlib.metadata.version("pymunk")
+    recorded["simulators"]["pymunk"] = "0.0.1"
+    (tmp_path / "a" / CONFIG_FILE).write_text(json.dumps(recorded))
+    with pytest.raises(ValueError, match=r"collected with .*0\.0\.1.*move the directory aside"):
+        collect(config, tmp_path / "a", executor="inline", progress=False)
 
 
 def test_interrupted_collection_fills_gaps(tmp_path: Path) -> None:

@@ -19,7 +19,8 @@ Files in the collection directory:
   atomically (:mod:`kinder_gym.demos.store`), with skill labels for agents that expose
   ``last_skill`` (the bilevel planner: :class:`~kinder_bench.baselines.bilevel_planning.
   ExecutedSkill`).
-* ``collect.json``: the configuration (a rerun with a different one is refused).
+* ``collect.json``: the configuration and the simulators' versions (a rerun with a different
+  configuration, or with other simulator versions, whose transitions differ, is refused).
 
 :func:`build_dataset` then writes the kept episodes, in attempt order, into a LeRobotDataset v3
 (:class:`~kinder_gym.demos.lerobot_format.DemoWriter`), rendering the images from the recorded
@@ -55,12 +56,15 @@ from kinder_bench.evaluation.executors import execute
 from kinder_bench.evaluation.protocol import PAPER_MAX_STEPS
 from kinder_bench.evaluation.results import append_record, load_records, write_json
 from kinder_bench.evaluation.runner import agent_seed, episode_seeds, import_modules
-from kinder_gym.demos.record import SOURCES, EpisodeRecorder
+from kinder_gym.demos.record import SOURCES, EpisodeRecorder, package_versions
 from kinder_gym.demos.store import load_record, save_record
 
 ATTEMPTS_FILE = "attempts.jsonl"
 EPISODES_DIR = "episodes"
 CONFIG_FILE = "collect.json"
+#: The simulators whose versions decide what a collected episode is: a collection resumes only on
+#: the versions it started with (``collect.json`` records them).
+SIMULATORS = ("pymunk", "pybullet", "mujoco")
 #: Attempts one collection may make per wanted episode by default.
 DEFAULT_ATTEMPTS_PER_EPISODE = 10
 
@@ -282,6 +286,7 @@ def kept_attempts(attempts: Sequence[Mapping[str, Any]], episodes: int) -> list[
 def _check_config(out_dir: Path, config: ResolvedCollect) -> None:
     path = out_dir / CONFIG_FILE
     new = config.to_json()
+    simulators = package_versions(SIMULATORS)
     if path.exists():
         old = json.loads(path.read_text())
         same = {k: old.get(k) for k in new if k not in ("episodes", "max_attempts")}
@@ -290,7 +295,14 @@ def _check_config(out_dir: Path, config: ResolvedCollect) -> None:
                 f"{path}: this directory holds a different collection ({old}); use another "
                 f"directory or the same configuration (only episodes/max_attempts may change)"
             )
-    write_json(path, new)
+        # A collection started before the versions were recorded cannot be checked.
+        if old.get("simulators", simulators) != simulators:
+            raise ValueError(
+                f"{path}: this directory's episodes were collected with {old['simulators']}, "
+                f"this environment has {simulators}, whose transitions differ; move the "
+                f"directory aside (or use another) to collect again"
+            )
+    write_json(path, {**new, "simulators": simulators})
 
 
 def _progress(total: int, enabled: bool, desc: str) -> Any:
