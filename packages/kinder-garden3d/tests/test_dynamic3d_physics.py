@@ -32,6 +32,20 @@ def _place(state: ObjectCentricState, env: Dynamic3DEnv, name: str, xyz: tuple[f
         state.set(obj, f, v)
 
 
+@pytest.mark.parametrize(("timestep", "substeps"), [(0.0005, 200), (0.001, 100)])
+def test_the_configured_timestep_is_the_compiled_models(timestep, substeps):
+    """The config is the one source of the physics step: the scene's MJCF is compiled with it
+    (upstream's 0.5 ms by default), so a model rebuilt from ``env.scene.xml`` steps alike."""
+    env = Dynamic3DEnv("Shelf3D/Shelf3D.json", num_objects=1,
+                       config={"timestep": timestep, "substeps": substeps})  # fmt: skip
+    try:
+        assert env.model.opt.timestep == timestep
+        assert mujoco.MjModel.from_xml_string(env.scene.xml).opt.timestep == timestep
+    finally:
+        env.close()
+    assert Dynamic3DEnv("Shelf3D/Shelf3D.json", num_objects=1).model.opt.timestep == 0.0005
+
+
 # -- predicates ----------------------------------------------------------------------------------
 
 

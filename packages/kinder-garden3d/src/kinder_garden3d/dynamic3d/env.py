@@ -319,10 +319,12 @@ class Dynamic3DEnv(ObjectCentricEnv):
             )
         self._held_torque = cfg.arm_control == "held_torque"
         self.scene: Scene = build_scene(
-            self.task, (cfg.image_width, cfg.image_height), arm_motors=self._held_torque
+            self.task,
+            (cfg.image_width, cfg.image_height),
+            timestep=cfg.timestep,
+            arm_motors=self._held_torque,
         )
         self.model = mujoco.MjModel.from_xml_string(self.scene.xml)
-        self.model.opt.timestep = cfg.timestep
         self.model.opt.cone = _CONES[cfg.cone]
         self.model.opt.impratio = cfg.impratio
         self.data = mujoco.MjData(self.model)

@@ -195,8 +195,14 @@ def _marker(name: str, box: Array, rgba: tuple[float, ...], local: Array) -> str
     )
 
 
-def build_scene(task: TaskSpec, image_size: tuple[int, int], arm_motors: bool = False) -> Scene:
-    """Assemble the MJCF for ``task`` (``image_size`` = (width, height) of offscreen frames)."""
+def build_scene(
+    task: TaskSpec, image_size: tuple[int, int], timestep: float, arm_motors: bool = False
+) -> Scene:
+    """Assemble the MJCF for ``task``.
+
+    ``image_size`` is (width, height) of offscreen frames; ``timestep`` is the physics step (s),
+    the env config's, so the compiled model and the env agree on it.
+    """
     fixtures = {n: build_fixture(e.kind, n, e.params) for n, e in task.fixtures.items()}
     objects = {n: build_object(e.kind, n, e.params) for n, e in task.objects.items()}
     regions = {n: _region_frame(task, n, fixtures, objects) for n in task.regions}
@@ -281,7 +287,9 @@ def build_scene(task: TaskSpec, image_size: tuple[int, int], arm_motors: bool = 
     width, height = image_size
     xml = f"""<mujoco model="kinder_{task.family}">
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="0.0005" integrator="implicitfast"><flag multiccd="enable"/></option>
+  <option timestep="{float(timestep)!r}" integrator="implicitfast">
+    <flag multiccd="enable"/>
+  </option>
   <statistic extent="3" center="1 0 0.5"/>
   <visual>
     <global offwidth="{max(width, 640)}" offheight="{max(height, 480)}"/>
