@@ -1,6 +1,6 @@
 """ScoopPour3D (MuJoCo): the concepts on edited states, the GraspScoop skill reaching
-HoldingScoop, the cube Pick/Place skills reaching their operators' predictions, and the planner
-solving a seeded instance (see ``kinder_gym.models.dynamic3d.scoop_pour3d``)."""
+HoldingScoop, the cube Pick/Place skills reaching their operators' predictions, and (slow) the
+planner solving a seeded instance (see ``kinder_gym.models.dynamic3d.scoop_pour3d``)."""
 
 from __future__ import annotations
 
@@ -189,6 +189,8 @@ def test_grasp_shift_keeps_a_touching_cube_out_of_the_pads(env) -> None:
     assert np.array_equal(state.data, before.data)
 
 
+# Slow (about a minute): the planner simulates ~900 actions of ten cubes.
+@pytest.mark.slow
 def test_planner_solves_a_seeded_instance(env) -> None:
     from kinder_bench.baselines.bilevel_planning import BilevelPlanningArgs, plan_reaches_goal
 

@@ -134,6 +134,8 @@ def test_cube_onto_the_floor_level_and_rod_into_its_compartment(env) -> None:
     assert on["on(green_cuboid1, cupboard_0_shelf_3_green_partition_goal)"]
 
 
+# Slow (about 40 s): the planner simulates the cube's and the three rods' placements.
+@pytest.mark.slow
 def test_planner_finishes_a_partly_sorted_instance(env) -> None:
     """Eight cubes already on their shelves, one cube and the three rods on the floor: the
     planner puts the cube in before any rod (the whole task takes more steps than the 1000
