@@ -32,18 +32,47 @@ def _place(state: ObjectCentricState, env: Dynamic3DEnv, name: str, xyz: tuple[f
         state.set(obj, f, v)
 
 
-@pytest.mark.parametrize(("timestep", "substeps"), [(0.0005, 200), (0.001, 100)])
-def test_the_configured_timestep_is_the_compiled_models(timestep, substeps):
-    """The config is the one source of the physics step: the scene's MJCF is compiled with it
-    (upstream's 0.5 ms by default), so a model rebuilt from ``env.scene.xml`` steps alike."""
+@pytest.mark.parametrize(
+    ("timestep", "substeps", "cone", "impratio"),
+    [(0.0005, 200, "elliptic", 10.0), (0.001, 100, "pyramidal", 1.0)],
+)
+def test_the_configured_physics_is_the_compiled_models(timestep, substeps, cone, impratio):
+    """The config is the one source of the physics step and the contact settings: the scene's
+    MJCF is compiled with them (upstream's 0.5 ms, elliptic cones and impratio 10 by default), so
+    a model rebuilt from ``env.scene.xml`` steps alike, state for state."""
     env = Dynamic3DEnv("Shelf3D/Shelf3D.json", num_objects=1,
-                       config={"timestep": timestep, "substeps": substeps})  # fmt: skip
+                       config={"timestep": timestep, "substeps": substeps, "cone": cone,
+                               "impratio": impratio})  # fmt: skip
     try:
-        assert env.model.opt.timestep == timestep
-        assert mujoco.MjModel.from_xml_string(env.scene.xml).opt.timestep == timestep
+        rebuilt = mujoco.MjModel.from_xml_string(env.scene.xml)
+        cones = {"elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC,
+                 "pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL}  # fmt: skip
+        for model in (env.model, rebuilt):
+            assert model.opt.timestep == timestep
+            assert model.opt.cone == cones[cone]
+            assert model.opt.impratio == impratio
+        env.reset(seed=3)
+        data = mujoco.MjData(rebuilt)
+        mujoco.mj_setState(rebuilt, data, _full_state(env.model, env.data), _FULL)
+        for _ in range(50):
+            data.ctrl[:] = env.data.ctrl
+            mujoco.mj_step(env.model, env.data)
+            mujoco.mj_step(rebuilt, data)
+        np.testing.assert_array_equal(_full_state(rebuilt, data), _full_state(env.model, env.data))
     finally:
         env.close()
-    assert Dynamic3DEnv("Shelf3D/Shelf3D.json", num_objects=1).model.opt.timestep == 0.0005
+    default = Dynamic3DEnv("Shelf3D/Shelf3D.json", num_objects=1).model.opt
+    assert (default.timestep, default.cone, default.impratio) == (
+        0.0005, mujoco.mjtCone.mjCONE_ELLIPTIC, 10.0)  # fmt: skip
+
+
+_FULL = mujoco.mjtState.mjSTATE_INTEGRATION
+
+
+def _full_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    out = np.empty(mujoco.mj_stateSize(model, _FULL))
+    mujoco.mj_getState(model, data, out, _FULL)
+    return out
 
 
 # -- predicates ----------------------------------------------------------------------------------

@@ -323,10 +323,10 @@ class Dynamic3DEnv(ObjectCentricEnv):
             (cfg.image_width, cfg.image_height),
             timestep=cfg.timestep,
             arm_motors=self._held_torque,
+            cone=cfg.cone,
+            impratio=cfg.impratio,
         )
         self.model = mujoco.MjModel.from_xml_string(self.scene.xml)
-        self.model.opt.cone = _CONES[cfg.cone]
-        self.model.opt.impratio = cfg.impratio
         self.data = mujoco.MjData(self.model)
         self._velocity_targets = self.task.arm_velocity_targets
         self._setup_objects()

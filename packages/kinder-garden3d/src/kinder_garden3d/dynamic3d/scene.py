@@ -196,13 +196,22 @@ def _marker(name: str, box: Array, rgba: tuple[float, ...], local: Array) -> str
 
 
 def build_scene(
-    task: TaskSpec, image_size: tuple[int, int], timestep: float, arm_motors: bool = False
+    task: TaskSpec,
+    image_size: tuple[int, int],
+    timestep: float,
+    arm_motors: bool = False,
+    cone: str = "elliptic",
+    impratio: float = 10.0,
 ) -> Scene:
     """Assemble the MJCF for ``task``.
 
-    ``image_size`` is (width, height) of offscreen frames; ``timestep`` is the physics step (s),
-    the env config's, so the compiled model and the env agree on it.
+    ``image_size`` is (width, height) of offscreen frames. ``timestep`` (the physics step, s),
+    ``cone`` (``"elliptic"`` or ``"pyramidal"``) and ``impratio`` are the env config's and are
+    written into the MJCF's ``<option>``, so a model compiled from ``Scene.xml`` alone steps as
+    the env does.
     """
+    if cone not in ("elliptic", "pyramidal"):
+        raise ValueError(f"build_scene: cone must be 'elliptic' or 'pyramidal', got {cone!r}")
     fixtures = {n: build_fixture(e.kind, n, e.params) for n, e in task.fixtures.items()}
     objects = {n: build_object(e.kind, n, e.params) for n, e in task.objects.items()}
     regions = {n: _region_frame(task, n, fixtures, objects) for n in task.regions}
@@ -287,7 +296,8 @@ def build_scene(
     width, height = image_size
     xml = f"""<mujoco model="kinder_{task.family}">
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="{float(timestep)!r}" integrator="implicitfast">
+  <option timestep="{float(timestep)!r}" integrator="implicitfast" cone="{cone}"
+          impratio="{float(impratio)!r}">
     <flag multiccd="enable"/>
   </option>
   <statistic extent="3" center="1 0 0.5"/>
