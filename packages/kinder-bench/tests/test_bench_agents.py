@@ -17,7 +17,7 @@ from kinder_bench.agents import (
     make_args,
     register_agent,
 )
-from kinder_bench.baselines.mpc import MPCAgent, MPCArgs, interpolation_matrix
+from kinder_bench.baselines.mpc import MPCAgent, MPCArgs, advance_spline, interpolation_matrix
 from kinder_bench.baselines.random_agent import RandomAgent
 from kinder_bench.evaluation.envs import make_env
 
@@ -79,20 +79,27 @@ def _far_start(env, reach: float) -> np.ndarray:
     raise AssertionError("no far start found")
 
 
-def test_mpc_ties_keep_the_warm_started_nominal(toy_id: str) -> None:
+@pytest.mark.parametrize("shift", ["one_step", "executed"])
+def test_mpc_ties_keep_the_warm_started_nominal(toy_id: str, shift: str) -> None:
     # 3 steps of at most 0.1·√2 cannot reach a far goal, so every candidate costs the same: the
-    # nominal (the previous best, shifted one step) must win the next solve.
+    # nominal (the previous best, advanced one step) must win the next solve.
     env = make_env(toy_id)
-    agent = make_agent("mpc", env, {"horizon": 3, "num_control_points": 4}, seed=0)
+    args = {"horizon": 3, "num_control_points": 4, "warm_start_shift": shift}
+    agent = make_agent("mpc", env, args, seed=0)
     assert isinstance(agent, MPCAgent)
     obs = _far_start(env, reach=4 * 0.1 * np.sqrt(2))
     agent.reset(obs, {})
     agent.act(obs)
     first = agent._solution.copy()
-    shifted = interpolation_matrix(agent._knots, agent._knots + 1) @ first
+    if shift == "executed":
+        shifted = interpolation_matrix(agent._knots, agent._knots + 1) @ first
+    else:
+        times, shifted = advance_spline(agent._solution_times, first, 1.0)
     obs, *_ = env.step(agent._plan[0])
     agent.act(obs)
     np.testing.assert_array_equal(agent._solution, shifted)
+    if shift == "one_step":
+        np.testing.assert_array_equal(agent._solution_times, times)
     assert not np.array_equal(shifted, first)
 
 

@@ -4,12 +4,25 @@ The paper's "MPC" baseline (KinDER spec, baselines §3.1). Every solve scores ``
 candidate action sequences over ``horizon`` steps on ``env.unwrapped.transition`` (pure: the live
 episode is never touched) with the env's own (sparse) reward, and keeps the best one:
 
-* A candidate is a piecewise-linear spline through ``num_control_points`` control points in action
-  space, spanning ``horizon`` steps; the action at step ``t`` is the spline's value at ``t``.
-* The nominal candidate is the previous best shifted forward by the steps executed since it was
-  found (warm start; times past its end hold its last control point), or, on the first solve or
-  without warm start, control points drawn from a standard normal and clipped to the action box.
-* The other ``num_rollouts - 1`` candidates are the nominal plus Gaussian noise of per-dimension std
+* A candidate is a piecewise-linear spline through control points in action space; the action at
+  step ``t`` (``t`` = 0 … ``horizon`` − 1) is the spline's value at ``t``, and times past the
+  spline's end hold its last point.
+* The nominal candidate is the previous best advanced in time (warm start), or, on the first solve
+  or without warm start, ``num_control_points`` points drawn from a standard normal, clipped to the
+  action box and spread evenly over ``horizon`` steps. How the previous best is advanced is
+  ``warm_start_shift``:
+
+  - ``"one_step"`` (default; upstream's ``prpl_utils`` 0.0.7 ``PredictiveSamplingSolver``, which
+    made the paper's figures): by one time unit at every solve, whatever the replan interval, so
+    the spline's duration shrinks by one per solve (its control points keep their times, and it
+    holds its last point for the rest of the horizon); once that duration is 1 or less, the next
+    solve starts from fresh random points. The control points are stored in the action space's
+    dtype, as upstream's spline stores them.
+  - ``"executed"``: by the steps executed since it was solved, re-spread over the whole horizon
+    (a receding horizon of constant length; our earlier default, kept as an option).
+
+* The other ``num_rollouts - 1`` candidates are ``num_control_points`` points spread evenly over
+  the nominal's duration (the nominal's values there) plus Gaussian noise of per-dimension std
   ``noise_fraction * (high - low)``, clipped to the action box.
 * Cost = −(sum of rewards up to and including the first terminating step); with the −1 per step
   reward that is "steps to the goal, or ``horizon`` if it is never reached".
@@ -62,6 +75,10 @@ FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
 
+#: The values of ``MPCArgs.warm_start_shift``.
+WARM_START_SHIFTS = ("one_step", "executed")
+
+
 @dataclasses.dataclass(frozen=True)
 class MPCArgs:
     """Arguments of the predictive-sampling MPC baseline (defaults: the paper's configuration)."""
@@ -78,6 +95,10 @@ class MPCArgs:
     """Start each solve from the previous best shifted forward (else from fresh random points)."""
     replan_interval: int = 1
     """Solve every this many env steps; in between, execute the stored best sequence."""
+    warm_start_shift: str = "one_step"
+    """How the warm start advances the previous best (see the module docstring): ``"one_step"``,
+    upstream's (one time unit per solve, the spline's duration shrinking), or ``"executed"``
+    (the steps executed since it was solved, over the whole horizon)."""
     batched: bool = True
     """Roll the candidates out together where the model allows it (same costs, so same actions,
     as the plain one-by-one loop; see the module docstring)."""
@@ -94,6 +115,10 @@ class MPCArgs:
             (self.num_control_points >= 2, "num_control_points must be >= 2"),
             (1 <= self.replan_interval <= self.horizon, "replan_interval must be in [1, horizon]"),
             (self.rollout_threads >= 0, "rollout_threads must be >= 0"),
+            (
+                self.warm_start_shift in WARM_START_SHIFTS,
+                f"warm_start_shift must be one of {WARM_START_SHIFTS}",
+            ),
         ]
         for ok, msg in checks:
             if not ok:
@@ -106,6 +131,20 @@ def interpolation_matrix(knot_times: FloatArray, times: FloatArray) -> FloatArra
     eye = np.eye(len(knot_times))
     columns = [np.interp(times, knot_times, eye[k]) for k in range(len(knot_times))]
     return np.stack(columns, axis=1).astype(np.float64)
+
+
+def advance_spline(
+    times: FloatArray, points: FloatArray, shift: float
+) -> tuple[FloatArray, FloatArray]:
+    """The piecewise-linear spline through ``(times, points)`` from time ``shift`` on, re-timed
+    to start at 0: its value at ``shift`` followed by the control points after it, which keep
+    their spacing (the sub-trajectory ``[shift, end]`` of upstream's ``Trajectory``, whose
+    segments shorter than 1e-10 are dropped)."""
+    later = times > shift + 1e-10
+    new_times = np.concatenate([[0.0], times[later] - shift])
+    start = np.array([np.interp(shift, times, points[:, j]) for j in range(points.shape[1])])
+    new_points = np.concatenate([start[None].astype(points.dtype), points[later]])
+    return new_times, new_points
 
 
 class RolloutModel(Protocol):
@@ -297,7 +336,9 @@ class MPCAgent(Agent[MPCArgs]):
         self._weights = interpolation_matrix(self._knots, np.arange(h, dtype=np.float64))
         self._model = self.model
         self._fast = self.fast_model() if args.batched else None
+        self._dtype = self.action_space.dtype
         self._solution: FloatArray | None = None  # control points of the best candidate
+        self._solution_times: FloatArray | None = None  # their times ("one_step" warm start)
         self._plan: FloatArray | None = None  # its actions, one per step
         self._since_solve = 0
         self.num_solves = 0
@@ -305,6 +346,7 @@ class MPCAgent(Agent[MPCArgs]):
 
     def reset(self, obs: Any, info: dict[str, Any]) -> None:
         self._solution = None
+        self._solution_times = None
         self._plan = None
         self._since_solve = 0
 
@@ -347,6 +389,9 @@ class MPCAgent(Agent[MPCArgs]):
         return np.clip(points, self._low, self._high)
 
     def _solve(self, state: Any) -> None:
+        if self.args.warm_start_shift == "one_step":
+            self._solve_one_step(state)
+            return
         a = self.args
         nominal = self._nominal()
         noise = self.rng.standard_normal((a.num_rollouts - 1, *nominal.shape)) * self._noise_std
@@ -357,6 +402,37 @@ class MPCAgent(Agent[MPCArgs]):
         costs = self.rollout_costs(state, plans)
         best = int(np.argmin(costs))  # first minimum: ties keep the nominal
         self._solution = candidates[best]
+        self._plan = plans[best]
+        self._since_solve = 0
+        self.num_solves += 1
+
+    def _solve_one_step(self, state: Any) -> None:
+        """One solve with upstream's warm start (``warm_start_shift="one_step"``)."""
+        a = self.args
+        times, points = self._solution_times, self._solution
+        if a.warm_start and times is not None and points is not None and times[-1] > 1 + 1e-6:
+            times, points = advance_spline(times, points, 1.0)
+        else:
+            times = np.linspace(0.0, float(a.horizon), a.num_control_points)
+            draw = self.rng.standard_normal((a.num_control_points, len(self._low)))
+            points = np.clip(draw, self._low, self._high).astype(self._dtype)
+        knots = np.linspace(0.0, float(times[-1]), a.num_control_points)
+        at_knots = interpolation_matrix(times, knots) @ points
+        noise = self.rng.standard_normal((a.num_rollouts - 1, *at_knots.shape)) * self._noise_std
+        samples = np.clip(at_knots[None] + noise, self._low, self._high).astype(self._dtype)
+        steps = np.arange(a.horizon, dtype=np.float64)
+        plans = np.concatenate(
+            [
+                (interpolation_matrix(times, steps) @ points)[None],
+                np.einsum("hk,nka->nha", interpolation_matrix(knots, steps), samples),
+            ]
+        )
+        costs = self.rollout_costs(state, plans)
+        best = int(np.argmin(costs))  # first minimum: ties keep the nominal
+        if best == 0:
+            self._solution_times, self._solution = times, points
+        else:
+            self._solution_times, self._solution = knots, samples[best - 1]
         self._plan = plans[best]
         self._since_solve = 0
         self.num_solves += 1
