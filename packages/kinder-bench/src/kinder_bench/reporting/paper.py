@@ -38,7 +38,12 @@ from typing import Any
 from kinder_bench.agents import agent_name, unavailable_reason
 from kinder_bench.evaluation.envs import short_id
 from kinder_bench.evaluation.metrics import Stat, Summary
-from kinder_bench.evaluation.protocol import PAPER_EPISODES, PAPER_MAX_STEPS, PAPER_SEEDS
+from kinder_bench.evaluation.protocol import (
+    DEVELOPMENT_SEED,
+    PAPER_EPISODES,
+    PAPER_MAX_STEPS,
+    PAPER_SEEDS,
+)
 
 METRICS = ("SR", "Rwd", "Inf-Time")
 METRIC_LABELS = {"SR": "SR ↑", "Rwd": "Rwd ↑", "Inf-Time": "Inf-Time (s) ↓"}
@@ -441,6 +446,8 @@ def protocol_deviations(result: Result, settings: Settings | None = None) -> tup
         or result.episodes != result.num_seeds * per_seed
     ):
         out.append(f"{result.num_seeds}×{per_seed}")
+        if result.seeds and min(result.seeds) >= DEVELOPMENT_SEED:
+            out.append("development seeds " + " ".join(str(s) for s in result.seeds))
     elif result.seeds is None:
         out.append("seeds not recorded")
     elif tuple(sorted(result.seeds)) != PAPER_SEEDS:
