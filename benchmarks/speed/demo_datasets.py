@@ -12,7 +12,13 @@ own rates: remaining episodes × (collection seconds per kept episode + build se
 Envs not built yet use the mean build rate per frame of the built 3D (or 2D) datasets.
 
     uv run python benchmarks/speed/demo_datasets.py
+    uv run python benchmarks/speed/demo_datasets.py --only SweepIntoDrawer3D-o5
     uv run python benchmarks/speed/demo_datasets.py --write-bench Motion2D-p0 --episodes 20
+
+``--only NAME ...`` measures those datasets and keeps the other rows of the committed
+``demo_datasets.json`` as they were measured (datasets are gitignored, so a machine may hold only
+the ones it made). The notes written under the table in ``demo_datasets.md`` (after its "`make
+datasets` so far" line) are kept when the table is rewritten.
 
 ``--write-bench NAME`` also times :class:`~kinder_gym.demos.lerobot_format.DemoWriter` alone on
 the first ``--episodes`` kept episodes of a collected dataset, into a temporary directory, with
@@ -30,7 +36,7 @@ from typing import Any
 
 from kinder_bench.demos.collection import BUILD_LOG, kept_attempts, read_attempts
 from kinder_bench.demos.specs import DATASETS
-from kinder_bench.evaluation.results import load_records
+from kinder_bench.evaluation.results import load_records, write_text
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -39,9 +45,15 @@ def _size(path: Path) -> int:
     return sum(p.stat().st_size for p in path.rglob("*") if p.is_file()) if path.exists() else 0
 
 
-def measure(base: Path) -> list[dict[str, Any]]:
+def measure(base: Path, names: list[str] | None = None) -> list[dict[str, Any]]:
+    """One row per dataset of ``names`` (default: all), from what ``base`` holds."""
+    unknown = sorted(set(names or ()) - set(DATASETS))
+    if unknown:
+        raise SystemExit(f"unknown dataset(s) {unknown}; known: {sorted(DATASETS)}")
     rows = []
     for spec in DATASETS.values():
+        if names is not None and spec.name not in names:
+            continue
         coll = spec.collection_dir(base)
         attempts = read_attempts(coll) if coll.exists() else []
         kept = kept_attempts(attempts, spec.episodes)
@@ -181,6 +193,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     parser.add_argument("--write-bench", metavar="NAME", default=None)
     parser.add_argument("--episodes", type=int, default=20)
+    parser.add_argument("--only", nargs="+", metavar="NAME", default=None)
     args = parser.parse_args()
     if args.write_bench:
         md = write_bench(args.base, args.write_bench, args.episodes)
@@ -188,12 +201,35 @@ def main() -> None:
         args.out.mkdir(parents=True, exist_ok=True)
         (args.out / "demo_write_speed.md").write_text(md + "\n")
         return
-    rows = measure(args.base)
+    json_path, md_path = args.out / "demo_datasets.json", args.out / "demo_datasets.md"
+    rows = measure(args.base, args.only)
+    if args.only is not None and json_path.exists():
+        rows = merge_rows(json.loads(json_path.read_text()), rows)
     md = table(rows)
     print(md)
+    notes = kept_notes(md_path)
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "demo_datasets.md").write_text(md + "\n")
-    (args.out / "demo_datasets.json").write_text(json.dumps(rows, indent=2) + "\n")
+    write_text(md_path, md + "\n" + (f"\n{notes}" if notes else ""))
+    write_text(json_path, json.dumps(rows, indent=2) + "\n")
+
+
+def merge_rows(old: list[dict[str, Any]], new: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """``old`` with the rows of ``new`` in place of those of the same dataset, in the specs'
+    order."""
+    by_name = {r["name"]: r for r in old} | {r["name"]: r for r in new}
+    return [by_name[name] for name in DATASETS if name in by_name]
+
+
+def kept_notes(md_path: Path) -> str:
+    """The text under the generated table of ``md_path`` (after its "`make datasets` so far"
+    line), or "" (no file, or nothing there)."""
+    if not md_path.exists():
+        return ""
+    lines = md_path.read_text().splitlines()
+    for i, line in enumerate(lines):
+        if line.startswith("`make datasets` so far:"):
+            return "\n".join(lines[i + 1 :]).strip("\n") + "\n" if lines[i + 1 :] else ""
+    return ""
 
 
 if __name__ == "__main__":
