@@ -109,6 +109,22 @@ def test_interrupted_collection_fills_gaps(tmp_path: Path) -> None:
     assert outcome.ran == 1 and [a["index"] for a in outcome.kept] == [0, 1, 2]
 
 
+def test_collection_stops_once_it_has_enough_episodes(tmp_path: Path) -> None:
+    """A batch is sized from the success rate so far; when it yields enough kept episodes
+    early, the rest of it is not run."""
+    config = CollectConfig("kinder/Motion2D-p0-v0", episodes=3, max_attempts=10)
+    collect(config, tmp_path, executor="inline", progress=False)
+    # Keep attempt 0 and record attempt 1 as failed: the rate is 1/2, so the next batch is 4
+    # attempts (2 needed / 0.5), of which 2 (indices 2 and 3, both successes) suffice.
+    lines = [json.loads(ln) for ln in (tmp_path / ATTEMPTS_FILE).read_text().splitlines()]
+    first, second = (next(a for a in lines if a["index"] == i) for i in (0, 1))
+    second = {**second, "success": False}
+    (tmp_path / ATTEMPTS_FILE).write_text(json.dumps(first) + "\n" + json.dumps(second) + "\n")
+    outcome = collect(config, tmp_path, executor="inline", progress=False)
+    assert outcome.ran == 2 and [a["index"] for a in outcome.kept] == [0, 2, 3]
+    assert sorted(a["index"] for a in read_attempts(tmp_path)) == [0, 1, 2, 3]
+
+
 def test_build_replay_info_show(tmp_path: Path) -> None:
     from kinder_gym.demos.lerobot_format import load_records
 

@@ -372,16 +372,27 @@ def collect(
                 )
                 for i in indices
             ]
-            for line in execute(run_attempt, tasks, executor, workers):
-                append_record(out / ATTEMPTS_FILE, line)
-                attempts.append(line)
-                ran += 1
-                attempts.sort(key=lambda a: int(a["index"]))
-                now_kept = len(kept_attempts(attempts, resolved.episodes))
-                bar.update(max(0, min(now_kept, resolved.episodes) - bar.n))
-                tried = len(attempts)
-                ok = sum(1 for a in attempts if a["success"])
-                bar.set_postfix(kept=f"{ok}/{tried}", refresh=False)
+            # The batch is sized from the success rate so far; once it has given enough kept
+            # episodes the rest is cancelled (a process pool lets its running attempts finish
+            # unrecorded: indices past the last kept one are never kept).
+            results = execute(run_attempt, tasks, executor, workers)
+            try:
+                for line in results:
+                    append_record(out / ATTEMPTS_FILE, line)
+                    attempts.append(line)
+                    ran += 1
+                    attempts.sort(key=lambda a: int(a["index"]))
+                    now_kept = len(kept_attempts(attempts, resolved.episodes))
+                    bar.update(max(0, min(now_kept, resolved.episodes) - bar.n))
+                    tried = len(attempts)
+                    ok = sum(1 for a in attempts if a["success"])
+                    bar.set_postfix(kept=f"{ok}/{tried}", refresh=False)
+                    if now_kept >= resolved.episodes:
+                        break
+            finally:
+                close = getattr(results, "close", None)  # a generator: ends the executor now
+                if close is not None:
+                    close()
     finally:
         bar.close()
     attempts = read_attempts(out)
