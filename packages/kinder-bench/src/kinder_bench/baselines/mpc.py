@@ -142,8 +142,8 @@ def advance_spline(
     segments shorter than 1e-10 are dropped)."""
     later = times > shift + 1e-10
     new_times = np.concatenate([[0.0], times[later] - shift])
-    start = np.array([np.interp(shift, times, points[:, j]) for j in range(points.shape[1])])
-    new_points = np.concatenate([start[None].astype(points.dtype), points[later]])
+    start = interpolation_matrix(times, np.array([shift])) @ points
+    new_points = np.concatenate([start.astype(points.dtype), points[later]])
     return new_times, new_points
 
 

@@ -26,7 +26,14 @@ from kinder_garden3d.dynamic3d.object_types import (
     STATIC_COLLIDER_TYPE,
 )
 from kinder_garden3d.dynamic3d.predicates import GoalEvaluator, Regions
-from kinder_garden3d.dynamic3d.scene import ARM_KD, ARM_KP, ROBOT_PREFIX, Scene, build_scene
+from kinder_garden3d.dynamic3d.scene import (
+    ARM_KD,
+    ARM_KP,
+    FRICTION_CONES,
+    ROBOT_PREFIX,
+    Scene,
+    build_scene,
+)
 from kinder_garden3d.dynamic3d.taskfile import GROUND, ROBOT, TaskSpec, load_task
 from kinder_garden3d.robot.description import (
     GRIPPER_STROKE,
@@ -56,7 +63,6 @@ _PENETRATION_TOL = 1e-4
 HOME_ARM: tuple[float, ...] = tuple(
     math.radians(a) for a in (0.0, -20.0, 180.0, -146.0, 0.0, -50.0, 90.0)
 )
-_CONES = {"elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC, "pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL}
 
 
 @dataclass(frozen=True)
@@ -129,9 +135,9 @@ class Dynamic3DConfig:
                      "max_reset_tries"):  # fmt: skip
             if not getattr(self, name) >= 1:
                 raise ValueError(f"Dynamic3DConfig.{name} must be >= 1, got {getattr(self, name)}")
-        if self.cone not in _CONES:
+        if self.cone not in FRICTION_CONES:
             raise ValueError(
-                f"Dynamic3DConfig.cone must be one of {sorted(_CONES)}, got {self.cone!r}"
+                f"Dynamic3DConfig.cone must be one of {sorted(FRICTION_CONES)}, got {self.cone!r}"
             )
         if self.arm_control not in ("pd", "held_torque"):
             raise ValueError(

@@ -195,6 +195,10 @@ def _marker(name: str, box: Array, rgba: tuple[float, ...], local: Array) -> str
     )
 
 
+#: MuJoCo's friction cones, by their MJCF names (``Dynamic3DConfig.cone``).
+FRICTION_CONES = ("elliptic", "pyramidal")
+
+
 def build_scene(
     task: TaskSpec,
     image_size: tuple[int, int],
@@ -210,8 +214,8 @@ def build_scene(
     written into the MJCF's ``<option>``, so a model compiled from ``Scene.xml`` alone steps as
     the env does.
     """
-    if cone not in ("elliptic", "pyramidal"):
-        raise ValueError(f"build_scene: cone must be 'elliptic' or 'pyramidal', got {cone!r}")
+    if cone not in FRICTION_CONES:
+        raise ValueError(f"build_scene: cone must be one of {FRICTION_CONES}, got {cone!r}")
     fixtures = {n: build_fixture(e.kind, n, e.params) for n, e in task.fixtures.items()}
     objects = {n: build_object(e.kind, n, e.params) for n, e in task.objects.items()}
     regions = {n: _region_frame(task, n, fixtures, objects) for n in task.regions}
