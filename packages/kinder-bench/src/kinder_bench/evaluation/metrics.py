@@ -13,6 +13,9 @@ Aggregation, for one method on one env:
 2. Across seeds: the mean and the sample standard deviation (``ddof=1``) of the per-seed values;
    seeds where a value is undefined are left out (Rwd of a seed without success); the std is
    undefined with fewer than two values.
+
+Envs with subtask milestones (:mod:`kinder_bench.evaluation.subtasks`) add, per milestone, the
+rate of episodes that reached it, aggregated by the same two steps.
 """
 
 from __future__ import annotations
@@ -23,6 +26,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
+
+from kinder_bench.evaluation.subtasks import in_order
 
 METRICS = ("success", "reward", "inference_time", "steps", "env_time")
 
@@ -56,6 +61,25 @@ class SeedMetrics:
     steps: float
     env_time: float
     errors: int
+    subtasks: dict[str, float] | None = None
+    """Milestone → the rate of this seed's episodes that reached it (None: not tracked)."""
+
+
+def subtask_rates(records: Sequence[Mapping[str, Any]]) -> dict[str, float] | None:
+    """Milestone → the rate of ``records`` that reached it; None unless every record tracked
+    the same milestones."""
+    tracked: list[Mapping[str, int | None]] = []
+    for r in records:
+        t = r.get("subtasks")
+        if t is None:
+            return None
+        tracked.append(t)
+    if not tracked:
+        return None
+    names = in_order(records[0]["env_id"], tracked[0])
+    if any(set(t) != set(names) for t in tracked):
+        return None
+    return {n: float(np.mean([t[n] is not None for t in tracked])) for n in names}
 
 
 def seed_metrics(records: Sequence[Mapping[str, Any]]) -> SeedMetrics:
@@ -75,6 +99,7 @@ def seed_metrics(records: Sequence[Mapping[str, Any]]) -> SeedMetrics:
         steps=float(np.mean([r["steps"] for r in records])),
         env_time=float(np.mean([r["env_time"] for r in records])),
         errors=sum(r.get("error") is not None for r in records),
+        subtasks=subtask_rates(records),
     )
 
 
@@ -100,6 +125,8 @@ class Summary:
     """The run's observation noise std (records written before noise existed: 0)."""
     action_noise: float = 0.0
     """The run's action noise std."""
+    subtasks: dict[str, Stat] = dataclasses.field(default_factory=dict)
+    """Milestone → the rate of episodes that reached it, over seeds (empty: not tracked)."""
 
     @property
     def num_seeds(self) -> int:
@@ -133,7 +160,20 @@ def summarize(records: Sequence[Mapping[str, Any]], method: str | None = None) -
         env_time=Stat.of([s.env_time for s in per_seed]),
         obs_noise=float(first.get("obs_noise", 0.0)),
         action_noise=float(first.get("action_noise", 0.0)),
+        subtasks=_subtask_stats(per_seed),
     )
+
+
+def _subtask_stats(per_seed: Sequence[SeedMetrics]) -> dict[str, Stat]:
+    """Milestone → its per-seed rates aggregated; empty unless every seed tracked them."""
+    rates: list[dict[str, float]] = []
+    for s in per_seed:
+        if s.subtasks is None:
+            return {}
+        rates.append(s.subtasks)
+    if not rates:
+        return {}
+    return {n: Stat.of([r.get(n) for r in rates]) for n in rates[0]}
 
 
 def aggregate(records: Iterable[Mapping[str, Any]]) -> list[Summary]:

@@ -31,7 +31,7 @@ import time
 import traceback
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import gymnasium
 import numpy as np
@@ -61,8 +61,9 @@ from kinder_bench.evaluation.results import (
     write_json,
     write_text,
 )
+from kinder_bench.evaluation.subtasks import SubtaskTracker, tracker_for
 from kinder_bench.evaluation.summary import CSV_FILE, csv_table, dedupe, run_commands, run_trainings
-from kinder_core import NoisyAction, NoisyObservation
+from kinder_core import NoisyAction, NoisyObservation, ObjectCentricEnv
 
 #: Fields that are wall-clock measurements or describe the machine while the episode ran
 #: (everything else in a record is deterministic).
@@ -331,9 +332,13 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
     frames: list[Any] | None = [] if task.video_path else None
     phase = "setup"
     agent: Agent[Any] | None = None
+    subtasks: SubtaskTracker | None = None
     try:
         import_modules(task.imports)
         env = _env_for(task.env_id, task.max_steps, task.obs_noise, task.action_noise)
+        # Milestones are tested on the true state, beneath any noise wrapper.
+        oc_env = cast(ObjectCentricEnv, env.unwrapped)
+        subtasks = tracker_for(task.env_id, oc_env)
         phase = "agent"
         agent_args = with_run_seed(task.agent_args, task.seed)
         agent = make_agent(task.agent, env, agent_args, seed=task.agent_seed)
@@ -341,6 +346,8 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         t0 = time.perf_counter()
         obs, info = env.reset(seed=task.env_seed)
         env_time += time.perf_counter() - t0
+        if subtasks is not None:
+            subtasks.observe(oc_env.get_state(), steps)
         if frames is not None:
             frames.append(env.render())
         phase = "agent"
@@ -366,6 +373,8 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
             env_time += time.perf_counter() - t0
             steps += 1
             total_reward += float(r)
+            if subtasks is not None:
+                subtasks.observe(oc_env.get_state(), steps)
             last = terminated or truncated or steps >= task.max_steps
             if frames is not None and (steps % task.video_stride == 0 or last):
                 frames.append(env.render())
@@ -386,6 +395,8 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
                 record["agent_info"] = agent_info
         except Exception as e:  # the agent's report must not lose the episode's result
             record["agent_info_error"] = f"{type(e).__name__}: {e}"
+    if subtasks is not None:
+        record["subtasks"] = subtasks.result()
     reward: float | None = total_reward
     if not np.isfinite(total_reward):  # would not survive JSON, and is an env bug anyway
         success, reward = False, None

@@ -14,7 +14,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from kinder_bench.evaluation.metrics import Summary
+from kinder_bench.evaluation.metrics import Stat, Summary
 from kinder_bench.evaluation.results import load_config
 
 CSV_FILE = "summary.csv"
@@ -59,13 +59,37 @@ CSV_COLUMNS = (
     "provenance",
     "obs_noise",
     "action_noise",
+    "subtasks",
 )
 """A summary row: the aggregate, the command that ran it, and the settings that decide whether
 it is at the paper's protocol (:func:`kinder_bench.reporting.paper.protocol_deviations`): ``seeds``
 (space-separated), ``agent_args`` (JSON), ``training`` (a learned agent's training budget, written
 by the tool that trained it), ``provenance`` (empty for rows the runner wrote; where a
-transcribed row comes from otherwise) and ``obs_noise``/``action_noise`` (the noise stds of a
-run under noise; empty: none, as in every row written before the columns existed)."""
+transcribed row comes from otherwise), ``obs_noise``/``action_noise`` (the noise stds of a
+run under noise; empty: none, as in every row written before the columns existed) and
+``subtasks`` (JSON, milestone → ``[mean, std]`` over seeds of the rate of episodes that reached
+it, for envs with milestones, :mod:`kinder_bench.evaluation.subtasks`; empty otherwise)."""
+
+
+def subtasks_field(subtasks: Mapping[str, Stat]) -> str:
+    """The ``subtasks`` column: JSON milestone → ``[mean, std]`` (empty when none tracked)."""
+    if not subtasks:
+        return ""
+    return json.dumps({k: [st.mean, st.std] for k, st in subtasks.items()})
+
+
+def parse_subtasks_field(text: str, num_seeds: int) -> dict[str, Stat]:
+    """The ``subtasks`` column back as milestone → :class:`Stat` (empty text: none)."""
+    if not text.strip():
+        return {}
+    data = json.loads(text)
+    if not isinstance(data, dict) or not all(
+        isinstance(v, list) and len(v) == 2 for v in data.values()
+    ):
+        raise ValueError(f"subtasks: expected a JSON object of [mean, std] pairs, got {text!r}")
+    return {
+        k: Stat(mean, std, num_seeds if mean is not None else 0) for k, (mean, std) in data.items()
+    }
 
 
 def run_commands(run_dirs: Sequence[Path | str]) -> dict[str, str]:
@@ -134,6 +158,7 @@ def csv_table(
                 "",
                 v(s.obs_noise) if s.obs_noise else "",
                 v(s.action_noise) if s.action_noise else "",
+                subtasks_field(s.subtasks),
             ]
         )
     return buf.getvalue()

@@ -44,6 +44,7 @@ from kinder_bench.evaluation.protocol import (
     PAPER_MAX_STEPS,
     PAPER_SEEDS,
 )
+from kinder_bench.evaluation.summary import parse_subtasks_field
 
 METRICS = ("SR", "Rwd", "Inf-Time")
 METRIC_LABELS = {"SR": "SR ↑", "Rwd": "Rwd ↑", "Inf-Time": "Inf-Time (s) ↓"}
@@ -182,6 +183,8 @@ class Result:
     """The observation noise std of a run under noise (0: none)."""
     action_noise: float = 0.0
     """The action noise std of a run under noise (0: none)."""
+    subtasks: Mapping[str, Stat] = dataclasses.field(default_factory=dict)
+    """Milestone → the rate of episodes that reached it (empty: not tracked)."""
 
     @property
     def name(self) -> str:
@@ -227,6 +230,7 @@ def results_from_summaries(
             training=trainings.get(s.run_id, ""),
             obs_noise=s.obs_noise,
             action_noise=s.action_noise,
+            subtasks=dict(s.subtasks),
         )
         for s in summaries
     ]
@@ -249,7 +253,7 @@ def parse_seeds_field(text: str) -> tuple[int, ...] | None:
 def results_from_csv(path: Path | str) -> list[Result]:
     """Results from a ``summary.csv`` written by the report (extra columns are ignored; the
     ``command``, ``seeds``, ``max_steps``, ``agent_args`` (JSON), ``training``, ``provenance``,
-    ``obs_noise`` and ``action_noise`` columns, when there, are kept)."""
+    ``obs_noise``, ``action_noise`` and ``subtasks`` columns, when there, are kept)."""
     path = Path(path)
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
@@ -279,6 +283,7 @@ def results_from_csv(path: Path | str) -> list[Result]:
                     summary=path.name,
                     obs_noise=float(row.get("obs_noise") or 0.0),
                     action_noise=float(row.get("action_noise") or 0.0),
+                    subtasks=parse_subtasks_field(row.get("subtasks") or "", seeds),
                 )
             )
         except (KeyError, ValueError) as e:

@@ -72,6 +72,28 @@ def markdown_table(summaries: Sequence[Summary]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def subtasks_table(summaries: Sequence[Summary]) -> str:
+    """Per env with subtask milestones (:mod:`kinder_bench.evaluation.subtasks`), one row per
+    method: the rate of episodes that reached each milestone (mean ± std across seeds); empty
+    when no run tracked any."""
+    tracked = [s for s in summaries if s.subtasks]
+    lines: list[str] = []
+    for env in dict.fromkeys(s.env_id for s in tracked):
+        rows = [s for s in tracked if s.env_id == env]
+        names = list(dict.fromkeys(n for s in rows for n in s.subtasks))
+        lines += [
+            f"Subtasks on {short_id(env)}: the rate of episodes that reached each.",
+            "",
+            "| Method | " + " | ".join(names) + " |",
+            "|---|" + "---|" * len(names),
+        ]
+        for s in rows:
+            cells = [_fmt(s.subtasks[n], 2) if n in s.subtasks else "" for n in names]
+            lines.append(f"| {s.method} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
 def plot_success(summaries: Sequence[Summary], path: Path | str) -> Path:
     """A grouped bar chart of success rates per env and method, with ±std error bars."""
     import matplotlib
@@ -159,6 +181,8 @@ def write_report(
         }
     trainings = run_trainings(run_dirs)
     md = markdown_table(summaries)
+    if subtasks := subtasks_table(summaries):
+        md += "\n" + subtasks
     paths = {"table": out / TABLE_FILE, "csv": out / CSV_FILE}
     write_text(paths["table"], md)
     write_text(paths["csv"], csv_table(summaries, commands, trainings))

@@ -322,6 +322,21 @@ def wiper_pose(state: ObjectCentricState, wiper: Object) -> tuple[FloatArray, Fl
     return np.asarray(f[:3], dtype=np.float64), np.asarray(rot, dtype=np.float64)
 
 
+def holds_wiper(state: ObjectCentricState, robot: Object, wiper: Object) -> bool:
+    """``Holding(robot, wiper)``: the fingers are closed on something (closure within
+    ``HOLD_CLOSURE``) and the pinch point is within 5 cm of the wiper head's axis."""
+    lo, hi = HOLD_CLOSURE
+    if not lo <= state.get(robot, "pos_gripper") <= hi:
+        return False
+    pinch = pinch_pose(base_pose(state, robot), arm_joints(state, robot))[0]
+    pos, rot = wiper_pose(state, wiper)
+    # Distance from the pinch point to the head's axis segment (local y ∈ [-0.1, 0.1]).
+    a = pos + rot @ (HEAD_CENTRE + np.array([0.0, -0.1, 0.0]))
+    b = pos + rot @ (HEAD_CENTRE + np.array([0.0, 0.1, 0.0]))
+    t = float(np.clip((pinch - a) @ (b - a) / float((b - a) @ (b - a)), 0.0, 1.0))
+    return float(np.linalg.norm(pinch - (a + t * (b - a)))) < 0.05
+
+
 def head_bottom(state: ObjectCentricState, wiper: Object) -> float:
     """Height of the lowest point of the wiper's head (m)."""
     pos, rot = wiper_pose(state, wiper)
@@ -649,25 +664,13 @@ def create_model(env: ObjectCentricEnv) -> PlanningModel:
     InDrawer = Predicate("InDrawer", (MOVABLE_TYPE,))
     Lost = Predicate("Lost", (MOVABLE_TYPE,))
 
-    def holding(state: ObjectCentricState) -> bool:
-        lo, hi = HOLD_CLOSURE
-        if not lo <= state.get(robot, "pos_gripper") <= hi:
-            return False
-        pinch = pinch_pose(base_pose(state, robot), arm_joints(state, robot))[0]
-        pos, rot = wiper_pose(state, wiper)
-        # Distance from the pinch point to the head's axis segment (local y ∈ [-0.1, 0.1]).
-        a = pos + rot @ (HEAD_CENTRE + np.array([0.0, -0.1, 0.0]))
-        b = pos + rot @ (HEAD_CENTRE + np.array([0.0, 0.1, 0.0]))
-        t = float(np.clip((pinch - a) @ (b - a) / float((b - a) @ (b - a)), 0.0, 1.0))
-        return float(np.linalg.norm(pinch - (a + t * (b - a)))) < 0.05
-
     def abstraction(state: ObjectCentricState) -> frozenset[GroundAtom]:
         atoms: set[GroundAtom] = set()
         if state.get(drawer, "pos") > OPEN_POS:
             atoms.add(DrawerOpen.ground([drawer]))
         else:
             atoms.add(DrawerClosed.ground([drawer]))
-        if holding(state):
+        if holds_wiper(state, robot, wiper):
             atoms.add(Holding.ground([robot, wiper]))
         else:
             atoms.add(HandEmpty.ground([robot]))
@@ -722,4 +725,5 @@ __all__: Sequence[str] = [
     "PickWiperController",
     "SweepController",
     "create_model",
+    "holds_wiper",
 ]
