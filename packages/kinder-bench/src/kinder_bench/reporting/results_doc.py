@@ -122,7 +122,8 @@ def _committed_reason(agent: str, env_id: str) -> str:
         return (
             f"{agent} runs on CPU here but was not trained on these envs; each needs 5 seeds × 1M "
             "env steps, 1.4–5.6 core-hours at the 250–1,000 steps/s one core trained the three "
-            "trained envs (benchmarks/results/rl.md). Stepping these envs alone takes, at the "
+            "trained envs, and PPO trained Transport3D-o2's five seeds in 2.5 core-hours at "
+            "509–675 steps/s (benchmarks/results/rl.md). Stepping these envs alone takes, at the "
             "steps/s of the speed pages (dynamic2d.md, kinematic3d.md, dynamic3d.md), "
             "DynObstruction2D-o1 8.7 core-hours (160 steps/s), DynPushPullHook2D-o5 8.5 (163), "
             "Transport3D-o2 0.5 (2,694), Shelf3D-o1 2.2 (619) and SweepIntoDrawer3D-o5 12.7 "
