@@ -166,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         runs.append(
             RunConfig(env_id, method, agent_args, seeds=parse_seeds(args.seeds),
-                      episodes=args.episodes)
+                      episodes=args.episodes, training=budget)
         )  # fmt: skip
     if not cells:
         print("no datasets found; nothing to do", file=sys.stderr)
