@@ -57,8 +57,17 @@ class SubtaskTracker:
         return dict(self._first)
 
 
-def sweep_into_drawer3d(env: ObjectCentricEnv) -> list[Milestone]:
-    """SweepIntoDrawer3D's four subtasks, the paper's (see the module docstring)."""
+SUBTASK_NAMES: dict[str, tuple[str, ...]] = {
+    "SweepIntoDrawer3D": ("open_drawer", "grasp_sweeper", "sweep_some", "sweep_all"),
+}
+"""Env family → its milestone names in order (reports use them without building an env)."""
+
+Test = Callable[[ObjectCentricState], bool]
+
+
+def sweep_into_drawer3d(env: ObjectCentricEnv) -> tuple[Test, ...]:
+    """SweepIntoDrawer3D's four subtask tests, in the order of :data:`SUBTASK_NAMES` (see the
+    module docstring)."""
     from kinder_gym.models.dynamic3d import sweep_into_drawer3d as model
 
     objects: Mapping[str, Any] = env.objects  # type: ignore[attr-defined]
@@ -75,25 +84,16 @@ def sweep_into_drawer3d(env: ObjectCentricEnv) -> list[Milestone]:
         return any(atoms(state).values())
 
     def sweep_all(state: ObjectCentricState) -> bool:
-        return all(atoms(state).values())
+        return bool(env.goal_reached(state))
 
-    return [
-        Milestone("open_drawer", open_drawer),
-        Milestone("grasp_sweeper", grasp_sweeper),
-        Milestone("sweep_some", sweep_some),
-        Milestone("sweep_all", sweep_all),
-    ]
+    return (open_drawer, grasp_sweeper, sweep_some, sweep_all)
 
 
-MILESTONES: dict[str, Callable[[ObjectCentricEnv], list[Milestone]]] = {
+MILESTONE_TESTS: dict[str, Callable[[ObjectCentricEnv], tuple[Test, ...]]] = {
     "SweepIntoDrawer3D": sweep_into_drawer3d,
 }
-"""Env family → the factory of its milestones (built from the env, which names the objects)."""
-
-SUBTASK_NAMES: dict[str, tuple[str, ...]] = {
-    "SweepIntoDrawer3D": ("open_drawer", "grasp_sweeper", "sweep_some", "sweep_all"),
-}
-"""Env family → its milestone names in order, without building an env (for reports)."""
+"""Env family → the factory of its milestone tests (built from the env, which names the
+objects), one per name of :data:`SUBTASK_NAMES`, in that order."""
 
 
 def family(env_id: str) -> str:
@@ -111,12 +111,16 @@ def in_order(env_id: str, names: Iterable[str]) -> list[str]:
 
 def tracker_for(env_id: str, env: ObjectCentricEnv) -> SubtaskTracker | None:
     """A fresh tracker for an episode of ``env_id`` (``None``: the family has no milestones)."""
-    make = MILESTONES.get(family(env_id))
-    return SubtaskTracker(make(env)) if make is not None else None
+    fam = family(env_id)
+    make = MILESTONE_TESTS.get(fam)
+    if make is None:
+        return None
+    names = SUBTASK_NAMES[fam]
+    return SubtaskTracker([Milestone(n, t) for n, t in zip(names, make(env), strict=True)])
 
 
 __all__ = [
-    "MILESTONES",
+    "MILESTONE_TESTS",
     "SUBTASK_NAMES",
     "Milestone",
     "SubtaskTracker",

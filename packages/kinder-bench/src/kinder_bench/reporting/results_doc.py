@@ -201,6 +201,11 @@ def _per_seed(r: Result) -> int | None:
     return r.episodes // len(r.seeds)
 
 
+def _seeds_by_episodes(r: Result) -> str:
+    """``5 × 50``: the run's seeds × its episodes per seed."""
+    return f"{r.num_seeds} × {r.episodes // max(1, r.num_seeds)}"
+
+
 def _current(r: Result) -> bool:
     """Measured by us, the same number of episodes on each seed, on the env as it is now (and
     without noise wrapped around it)."""
@@ -499,15 +504,14 @@ def subtasks_markdown(
                 for n in names
             ]
             method = table.method_of(agent) or agent
-            budget = "5 × 50" if run is not None else ""
+            budget = _seeds_by_episodes(run) if run is not None else ""
             lines.append(f"| {method} (paper) | {budget} | " + " | ".join(cells) + " |")
         for r in tracked:
             if id(r) in used:
                 continue
             cells = [fmt_stat(r.subtasks[n], 2) if n in r.subtasks else "" for n in names]
-            per_seed = r.episodes // max(1, r.num_seeds)
             lines.append(
-                f"| {variant_name(r)} | {r.num_seeds} × {per_seed} | " + " | ".join(cells) + " |"
+                f"| {variant_name(r)} | {_seeds_by_episodes(r)} | " + " | ".join(cells) + " |"
             )
         lines.append("")
     return "\n".join(lines)
@@ -644,10 +648,9 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
             cells = [
                 fmt_stat(r.stat(m), metric_digits(m, r.stat(m))) for m in ("SR", "Rwd", "Inf-Time")
             ]
-            per_seed = r.episodes // max(1, r.num_seeds)
             where = r.provenance or "measured"
             lines.append(
-                f"| {r.env_id} | {variant_name(r)} | {r.num_seeds} × {per_seed} | "
+                f"| {r.env_id} | {variant_name(r)} | {_seeds_by_episodes(r)} | "
                 + " | ".join(cells)
                 + f" | {r.errors} | {where} | [#{number}](#command-{number}) |"
             )
