@@ -54,6 +54,12 @@ def parse_args(method: str, argv: list[str] | None = None) -> argparse.Namespace
     p.add_argument("--skip-eval", action="store_true", help="Only train.")
     if diffusion:
         p.add_argument("--steps", type=int, default=100_000, help="Optimiser steps per env.")
+        p.add_argument(
+            "--paper-budget",
+            action="store_true",
+            help="Train the paper's budget (5001 epochs over the dataset; overrides --steps); "
+            "with the paper preset the run fills the paper's cell.",
+        )
         p.add_argument("--preset", default="paper", help="paper or cpu.")
         p.add_argument("--batch-size", type=int, default=None)
         p.add_argument("--device", default="auto")
@@ -65,6 +71,19 @@ def parse_args(method: str, argv: list[str] | None = None) -> argparse.Namespace
     args = p.parse_args(argv)
     args.env = args.env or list(PAPER_ENVS)
     return args
+
+
+def diffusion_budget(
+    method: str, env_id: str, preset: str, batch: int, steps: int, paper_budget: bool
+) -> str:
+    """The training budget a DP/DPES run records: the paper's own (its settings file's words)
+    when it trained the paper's epochs with the paper preset and batch, else what it trained."""
+    from kinder_bench.baselines.diffusion_presets import PRESET_BATCH
+    from kinder_bench.reporting.paper import paper_settings
+
+    if paper_budget and preset == "paper" and batch == PRESET_BATCH["paper"]:
+        return str(paper_settings(method, env_id)["training"])
+    return f"{steps} steps × batch {batch}, preset {preset}"
 
 
 def dataset_dir(datasets: Path, env_id: str) -> Path:
@@ -131,19 +150,22 @@ def main(argv: list[str] | None = None) -> int:
                 agent_args["horizon"] = args.horizon
         else:
             from kinder_bench.baselines.diffusion import (
-                PRESET_BATCH,
                 DiffusionTrainArgs,
+                paper_budget_steps,
                 train_diffusion,
             )
+            from kinder_bench.baselines.diffusion_presets import PRESET_BATCH
 
             if args.device != "cuda" and not torch.cuda.is_available():
                 torch.set_num_threads(1)
+            batch = args.batch_size or PRESET_BATCH[args.preset]
+            steps = paper_budget_steps(spec, batch) if args.paper_budget else args.steps
             train_diffusion(
                 DiffusionTrainArgs(
                     dataset=data,
                     out=run,
                     method=method,
-                    steps=args.steps,
+                    steps=steps,
                     preset=args.preset,
                     batch_size=args.batch_size,
                     device=args.device,
@@ -151,8 +173,7 @@ def main(argv: list[str] | None = None) -> int:
                     save_every=args.save_every,
                 )
             )
-            batch = args.batch_size or PRESET_BATCH[args.preset]
-            budget = f"{args.steps} steps × batch {batch}, preset {args.preset}"
+            budget = diffusion_budget(method, env_id, args.preset, batch, steps, args.paper_budget)
             agent_args = {"checkpoint": str(run), "device": args.device}
         cells.append(
             {

@@ -27,8 +27,10 @@ from kinder_bench.baselines.demo_data import read_dataset_spec
 from kinder_bench.baselines.diffusion import (
     DiffusionTrainArgs,
     diffusion_config,
+    paper_budget_steps,
     train_diffusion,
 )
+from kinder_bench.baselines.diffusion_presets import PAPER_EPOCHS
 from kinder_bench.baselines.mbrl import MBRLTrainArgs, load_delta_model, train_mbrl
 from kinder_bench.baselines.ood import run_ood
 from kinder_bench.cli import app
@@ -95,6 +97,16 @@ def test_dataset_spec_of_the_fixture(motion: Path, tmp_path: Path) -> None:
             DiffusionTrainArgs(dataset=motion, out=tmp_path / "x", env="StickButton2D-b1"),
             progress=False,
         )
+
+
+def test_paper_budget_is_5001_epochs_of_full_batches(motion: Path) -> None:
+    from kinder_gym.demos.lerobot_format import load_records
+
+    lengths = [r.num_steps for r in load_records(motion)]
+    # Every frame but the last 7 of an episode starts a sample; a shorter episode keeps one.
+    starts = sum(max(1, n - 7) for n in lengths)
+    assert paper_budget_steps(read_dataset_spec(motion), 4) == PAPER_EPOCHS * (starts // 4)
+    assert paper_budget_steps(read_dataset_spec(motion), 10**6) == 0
 
 
 def test_dp_checkpoints_logs_and_resumes_bit_identically(

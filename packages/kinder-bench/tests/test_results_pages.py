@@ -4,6 +4,8 @@
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
+import json
 import re
 from pathlib import Path
 
@@ -11,9 +13,11 @@ import pytest
 
 from kinder_bench.agents import agent_class
 from kinder_bench.evaluation.metrics import Stat
-from kinder_bench.reporting.paper import Result, results_from_csv
+from kinder_bench.reporting.paper import Result, paper_settings, results_from_csv
 from kinder_bench.reporting.results_doc import (
+    GPU_COST_FILE,
     attribution_markdown,
+    diffusion_reason,
     heldout_markdown,
     load_paper_noise,
     noise_markdown,
@@ -243,3 +247,29 @@ def test_every_results_page_says_when_it_was_measured() -> None:
     when = re.compile(r"\b20\d\d-\d\d-\d\d\b|commit `?[0-9a-f]{7,40}\b")
     undated = [p.name for p in pages if not when.search(p.read_text())]
     assert not undated, f"results pages without a date or commit: {undated}"
+
+
+def test_the_diffusion_note_quotes_the_gpu_measurement_and_a_command_that_runs() -> None:
+    cost = json.loads((REPO / "benchmarks/results" / GPU_COST_FILE).read_text())
+    text = diffusion_reason(cost)
+    one = [r["samples_per_s"] for r in cost["rows"] if r["cameras"] == 1]
+    hours = sum(r["paper_hours"] for r in cost["rows"])
+    assert f"{min(one):,.0f}–{max(one):,.0f} samples/s with one camera" in text
+    assert f"{hours:,.0f} for all {len(cost['rows'])} DP and DPES cells" in text
+    assert "GPU-hours" not in diffusion_reason(None)
+    # The command names a script that exists and takes these flags, and a run of it records the
+    # paper's training budget, so it can fill the cell.
+    match = re.search(r"`(python [^`]+)`", text)
+    assert match is not None
+    _, script, _, *argv = match.group(1).split()
+    spec = importlib.util.spec_from_file_location("learning_script", REPO / script)
+    assert spec is not None and spec.loader is not None
+    learning = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(learning)
+    args = learning.parse_args("dp", [a.replace("<env>", "Motion2D-p0") for a in argv])
+    assert args.paper_budget and args.device == "cuda" and args.episodes == 50
+    paper = paper_settings("dp", MOTION)["training"]
+    assert learning.diffusion_budget("dp", MOTION, "paper", 64, 9, True) == paper
+    assert learning.diffusion_budget("dp", MOTION, "paper", 64, 9, False) != paper
+    cpu = learning.diffusion_budget("dp", MOTION, "cpu", 16, 9, True)
+    assert cpu == "9 steps × batch 16, preset cpu"

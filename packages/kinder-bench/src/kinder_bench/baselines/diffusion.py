@@ -37,7 +37,6 @@ Deviations and choices, written down:
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import math
 import os
@@ -60,6 +59,14 @@ from kinder_bench.baselines.demo_data import (
     read_dataset_spec,
     resolve_dataset_env,
 )
+from kinder_bench.baselines.diffusion_presets import (
+    COMMON_FIELDS,
+    METHODS,
+    PAPER_EPOCHS,
+    PRESET_BATCH,
+    PRESET_FIELDS,
+    PRESETS,
+)
 from kinder_bench.evaluation.results import package_versions, write_json
 from kinder_bench.training.checkpoints import (
     METADATA_FILE,
@@ -71,58 +78,13 @@ from kinder_bench.training.checkpoints import (
     save_checkpoint,
 )
 from kinder_bench.training.csvlog import CsvLog
+from kinder_bench.training.ema import EMA
 
 if TYPE_CHECKING:
     import torch
     from lerobot.policies.diffusion.modeling_diffusion import DiffusionPolicy
 
 os.environ.setdefault("HF_HUB_OFFLINE", "1")  # never reach the hub (datasets are local)
-
-METHODS = ("dp", "dpes")
-PRESETS = ("paper", "cpu")
-
-#: Fields of lerobot's ``DiffusionConfig`` set by each preset.
-PRESET_FIELDS: dict[str, dict[str, Any]] = {
-    "paper": {
-        "down_dims": (256, 512, 1024),
-        "diffusion_step_embed_dim": 128,
-        "resize_shape": None,
-    },
-    "cpu": {
-        "down_dims": (16, 32, 64),
-        "diffusion_step_embed_dim": 32,
-        "resize_shape": (64, 64),
-    },
-}
-PRESET_BATCH = {"paper": 64, "cpu": 16}
-
-#: Fields shared by both presets (the paper's settings).
-COMMON_FIELDS: dict[str, Any] = {
-    "n_obs_steps": 2,
-    "horizon": 16,
-    "n_action_steps": 8,
-    "drop_n_last_frames": 7,
-    "kernel_size": 5,
-    "n_groups": 8,
-    "use_film_scale_modulation": True,
-    "vision_backbone": "resnet18",
-    "pretrained_backbone_weights": None,
-    "use_group_norm": True,
-    "crop_shape": None,
-    "crop_ratio": 1.0,
-    "use_separate_rgb_encoder_per_camera": True,
-    "noise_scheduler_type": "DDIM",
-    "num_train_timesteps": 100,
-    "num_inference_steps": 16,
-    "beta_schedule": "squaredcos_cap_v2",
-    "prediction_type": "epsilon",
-    "clip_sample": True,
-    "optimizer_lr": 1e-4,
-    "optimizer_betas": (0.95, 0.999),
-    "optimizer_weight_decay": 1e-6,
-    "scheduler_warmup_steps": 500,
-    "push_to_hub": False,
-}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -232,33 +194,6 @@ def diffusion_config(
     )
 
 
-class EMA:
-    """Exponential moving average of a module's parameters (diffusion_policy's ``EMAModel``
-    schedule: ``decay = min(1 - (1 + step)^-0.75, 0.9999)``)."""
-
-    def __init__(self, module: torch.nn.Module, power: float = 0.75, max_decay: float = 0.9999):
-        self.module = copy.deepcopy(module).eval()
-        for p in self.module.parameters():
-            p.requires_grad_(False)
-        self.power = power
-        self.max_decay = max_decay
-        self.step = 0
-
-    def decay(self) -> float:
-        return float(min(max(1.0 - (1.0 + self.step) ** -self.power, 0.0), self.max_decay))
-
-    def update(self, module: torch.nn.Module) -> None:
-        import torch
-
-        d = self.decay()
-        with torch.no_grad():
-            for ema_p, p in zip(self.module.parameters(), module.parameters(), strict=True):
-                ema_p.mul_(d).add_(p.detach(), alpha=1.0 - d)
-            for ema_b, b in zip(self.module.buffers(), module.buffers(), strict=True):
-                ema_b.copy_(b)
-        self.step += 1
-
-
 def lr_lambda(warmup: int, total: int) -> Any:
     """Linear warm-up over ``warmup`` steps, then a half cosine down to 0 at ``total``."""
 
@@ -279,6 +214,18 @@ def sample_starts(episode_index: NDArray[np.int64], drop_last: int) -> NDArray[n
     for lo, hi in zip(np.r_[0, boundaries], np.r_[boundaries, len(episode_index)], strict=True):
         starts += range(int(lo), int(max(lo + 1, hi - drop_last)))
     return np.asarray(starts, dtype=np.int64)
+
+
+def paper_budget_steps(spec: DatasetSpec, batch_size: int) -> int:
+    """Optimiser steps of the paper's budget on a dataset: :data:`PAPER_EPOCHS` epochs, each
+    the dataset's sample starts (:func:`sample_starts`) in full batches, as
+    :class:`StepBatches` draws them."""
+    from kinder_gym.demos.lerobot_format import load_records
+
+    lengths = [r.num_steps for r in load_records(spec.root)]
+    episode = np.repeat(np.arange(len(lengths)), lengths)
+    starts = sample_starts(episode, COMMON_FIELDS["drop_n_last_frames"])
+    return PAPER_EPOCHS * (len(starts) // batch_size)
 
 
 class StepBatches:

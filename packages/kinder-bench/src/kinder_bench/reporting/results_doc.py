@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import json
 import os
 import re
 from collections.abc import Callable, Mapping, Sequence
@@ -67,14 +68,48 @@ ENDPOINT_REASON = (
     "`kinder bench run -a <llm_plan|vlm_plan|llm_con|vlm_con> -e <env> --seeds 0-4 --episodes 50`"
 )
 
-#: The note of the diffusion-policy cells at the paper's training budget.
-DIFFUSION_REASON = (
-    "needs a GPU for the paper's training budget: a 224×224 image UNet, up to 5001 epochs at "
-    "batch 64 per env (our trainer's default: 100k steps), "
-    "trains at 1–2 samples/s on this project's CPUs (benchmarks/results/learning.md); on a GPU: "
-    "`python benchmarks/<dp|dpes>.py --env <env> --preset paper --device cuda --seeds 0-4 "
-    "--episodes 50 --out runs/<dp|dpes>`"
+#: The GPU measurement of the paper preset's training step (benchmarks/speed/dp_gpu_cost.py).
+GPU_COST_FILE = "dp_gpu_cost.json"
+
+#: The command that trains and evaluates DP/DPES at the paper's budget on a GPU.
+DIFFUSION_COMMAND = (
+    "python benchmarks/experiments/learning.py <dp|dpes> --env <env> --paper-budget --device cuda "
+    "--num-workers 14 --seeds 0-4 --episodes 50 --out runs/learning/<dp|dpes>"
 )
+
+
+def _span(values: Sequence[float], fmt: str) -> str:
+    lo, hi = min(values), max(values)
+    return format(lo, fmt) if format(lo, fmt) == format(hi, fmt) else f"{lo:{fmt}}–{hi:{fmt}}"
+
+
+def diffusion_reason(gpu_cost: Mapping[str, Any] | None = None) -> str:
+    """The note of the DP/DPES cells: the paper's budget, its cost on this project's CPUs and,
+    from the committed GPU measurement (``GPU_COST_FILE``) where there is one, on a GPU."""
+    text = (
+        "needs a GPU for the paper's training budget: the paper preset (a UNet over 224×224 "
+        "camera images, batch 64) for 5001 epochs over each env's 100 demonstrations, which "
+        "trains at 1–2 samples/s on this project's CPUs (benchmarks/results/learning.md)"
+    )
+    if gpu_cost:
+        rows = gpu_cost["rows"]
+        one = [r["samples_per_s"] for r in rows if r["cameras"] == 1]
+        three = [r["samples_per_s"] for r in rows if r["cameras"] == 3]
+        hours = [r["paper_hours"] for r in rows if r.get("paper_hours") is not None]
+        speeds = " and ".join(
+            f"{_span(v, ',.0f')} samples/s with {n}"
+            for v, n in ((one, "one camera (2D)"), (three, "three (3D)"))
+            if v
+        )
+        text += (
+            f". On an {gpu_cost['machine']['device']} ({gpu_cost['machine']['date']}) the "
+            f"training step alone runs at {speeds}, so the paper's budget takes "
+            f"{_span(hours, ',.1f')} GPU-hours per cell, {sum(hours):,.0f} for all "
+            f"{len(hours)} DP and DPES cells, if data loading keeps up "
+            f"(benchmarks/results/{GPU_COST_FILE}, learning.md)"
+        )
+    return f"{text}: `{DIFFUSION_COMMAND}`"
+
 
 #: Agents that run on this project's CPUs, and the command that fills their cells.
 CPU_COMMANDS = {
@@ -102,7 +137,7 @@ def _extra_columns(path: Path) -> list[dict[str, str]]:
     return [{k: v for k, v in row.items() if k not in CSV_COLUMNS and v} for row in rows]
 
 
-def _committed_reason(agent: str, env_id: str) -> str:
+def _committed_reason(agent: str, env_id: str, gpu_cost: Mapping[str, Any] | None = None) -> str:
     """Why a paper cell has no run of any kind, independent of this machine (an agent's own
     :meth:`~kinder_bench.agents.Agent.unavailable` depends on checkpoints, endpoints and GPUs
     here, so the page would differ between machines), with the command that fills it and, where
@@ -114,7 +149,7 @@ def _committed_reason(agent: str, env_id: str) -> str:
     if agent in ("llm_plan", "vlm_plan", "llm_con", "vlm_con"):
         return ENDPOINT_REASON
     if agent in ("dp", "dpes"):
-        return DIFFUSION_REASON
+        return diffusion_reason(gpu_cost)
     command = CPU_COMMANDS.get(
         agent, f"kinder bench run -a {agent} -e <env> --seeds 0-4 --episodes 50"
     )
@@ -524,6 +559,12 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
     """
     if not files:
         raise ValueError("No *_summary.csv files to build the results page from")
+    cost_file = Path(files[0]).parent / GPU_COST_FILE
+    gpu_cost = json.loads(cost_file.read_text()) if cost_file.exists() else None
+
+    def reason(agent: str, env_id: str) -> str:
+        return _committed_reason(agent, env_id, gpu_cost)
+
     per_file = []
     everything = []
     for path in files:
@@ -558,7 +599,7 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
         "kind exists, with why and the command that fills it. The first table counts the "
         "paper's cells in each state.",
         "",
-        paper_markdown(compare(everything, reason=_committed_reason)).rstrip("\n"),
+        paper_markdown(compare(everything, reason=reason)).rstrip("\n"),
         "",
         "## Evaluation seeds against held-out seeds",
         "",

@@ -1,4 +1,4 @@
-"""The trainers' shared library: checkpoints and CSV progress logs (the ``kinder train`` commands
+"""The trainers' shared library: checkpoints, CSV progress logs and the weights' EMA (the ``kinder train`` commands
 are :mod:`kinder_bench.cli.train`).
 
 Every trainer follows the same conventions so that runs look alike on disk:
