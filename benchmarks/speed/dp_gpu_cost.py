@@ -45,8 +45,6 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[2]
 BENCH_SRC = ROOT / "packages/kinder-bench/src/kinder_bench"
-#: The paper's DP/DPES budget: up to 5001 epochs at batch 64 (paper appendix).
-PAPER_EPOCHS = 5001
 #: ``kinder train dp|dpes``'s default budget, in optimiser steps.
 TRAINER_STEPS = 100_000
 
@@ -202,8 +200,9 @@ def _time_chunk(cfg: Any, policy: Any, chunks: int, device: str) -> dict[str, fl
     return {"chunk_s_median": statistics.median(times), "chunk_s_mean": statistics.fmean(times)}
 
 
-def paper_steps(row: dict[str, Any], drop_last: int, batch: int) -> int | None:
-    """Optimiser steps of the paper's 5001 epochs over the env's demonstration dataset. An epoch
+def paper_steps(row: dict[str, Any], presets: ModuleType, batch: int) -> int | None:
+    """Optimiser steps of the paper's epochs (``PAPER_EPOCHS`` of the presets module) over the
+    env's demonstration dataset, from its frame and episode counts alone. An epoch
     is the dataset's sample starts in full batches (``StepBatches``); the starts are every frame
     but the last ``drop_last`` of each episode, and the first frame of an episode no longer than
     that, so ``max(frames - drop_last * episodes, episodes)`` (exact when every episode is longer
@@ -211,8 +210,9 @@ def paper_steps(row: dict[str, Any], drop_last: int, batch: int) -> int | None:
     frames, episodes = row.get("dataset_frames"), row.get("dataset_episodes")
     if not frames or not episodes:
         return None
+    drop_last = presets.COMMON_FIELDS["drop_n_last_frames"]
     starts = max(frames - drop_last * episodes, episodes)
-    return PAPER_EPOCHS * (starts // batch)
+    return int(presets.PAPER_EPOCHS * (starts // batch))
 
 
 def _no_video_module() -> ModuleType:
@@ -257,7 +257,7 @@ def gpu(args: argparse.Namespace) -> None:
             params = sum(p.numel() for p in policy.parameters())
             train = _time_train(cfg, policy, ema_cls, batch, args.steps, args.warmup, device)
             chunk = _time_chunk(cfg, policy, args.chunks, device)
-            steps = paper_steps(row, presets.COMMON_FIELDS["drop_n_last_frames"], batch)
+            steps = paper_steps(row, presets, batch)
             result = {
                 "env_id": row["env_id"],
                 "method": method,
@@ -320,10 +320,9 @@ def table(args: argparse.Namespace) -> None:
     presets = _load(BENCH_SRC / "baselines/diffusion_presets.py", "kinder_diffusion_presets")
     gpu_run = json.loads(Path(args.gpu).read_text())
     shapes_by_env = {r["env_id"]: r for r in json.loads(Path(args.shapes).read_text())}
-    drop = presets.COMMON_FIELDS["drop_n_last_frames"]
     rows = []
     for r in gpu_run["rows"]:
-        steps = paper_steps(shapes_by_env[r["env_id"]], drop, r["batch"])
+        steps = paper_steps(shapes_by_env[r["env_id"]], presets, r["batch"])
         hours = None if steps is None else steps * r["step_s_median"] / 3600
         rows.append({**r, "paper_steps": steps, "paper_hours": hours})
     decodes = [json.loads(Path(d).read_text()) for d in args.decode]
