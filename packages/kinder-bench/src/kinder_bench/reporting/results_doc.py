@@ -166,10 +166,12 @@ def _committed_reason(agent: str, env_id: str, gpu_cost: Mapping[str, Any] | Non
         )
     if agent == "gsc" and env_id == "kinder/SweepIntoDrawer3D-o5-v0":
         return (
-            "gsc on SweepIntoDrawer3D-o5 was not run; its 30 training demonstrations alone cost "
-            "~25 CPU-minutes (the bilevel planner needs ~19 s per plan and solves 0.40 of the "
-            "instances, benchmarks/results/gsc.md), before perturbations, training and the 250 "
-            f"evaluation episodes: `{command}`"
+            "gsc on SweepIntoDrawer3D-o5 has no finished run: its campaign cell collects 50 "
+            "bilevel-planner demonstrations (attempts take 25–70 s each on this machine's "
+            "shared cores, and some reach the 60 s planning limit) before the perturbations, the "
+            "training and the 250 evaluation episodes; the command resumes where it stopped: "
+            "`kinder bench campaign benchmarks/campaigns/paper.toml "
+            "--only gsc/SweepIntoDrawer3D-o5 --out runs/campaign/gsc_SweepIntoDrawer3D-o5`"
         )
     where = ""
     if agent == "mpc":
