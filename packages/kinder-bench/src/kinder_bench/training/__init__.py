@@ -1,5 +1,5 @@
-"""The trainers' shared library: checkpoints, CSV progress logs and the weights' EMA (the ``kinder train`` commands
-are :mod:`kinder_bench.cli.train`).
+"""The trainers' shared library: checkpoints, CSV progress logs and the weights' EMA (the
+``kinder train`` commands are :mod:`kinder_bench.cli.train`).
 
 Every trainer follows the same conventions so that runs look alike on disk:
 
