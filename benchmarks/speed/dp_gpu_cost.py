@@ -4,8 +4,9 @@ chunk on a GPU, and the camera-frame decoding that feeds the trainer on one CPU 
 Subcommands:
 
 * ``shapes`` (needs the project): the DP/DPES inputs of the paper's eight envs (cameras, image
-  size, robot-state, environment-state and action sizes) and each demonstration dataset's frames
-  and episodes (``results/demo_datasets.json``), written as JSON for ``gpu``.
+  size, robot-state, environment-state and action sizes), each demonstration dataset's frames
+  and episodes (``results/demo_datasets.json``) and, where the dataset is built here, its exact
+  count of sample starts, written as JSON for ``gpu``.
 * ``gpu`` (needs only torch and lerobot 0.4.4, so it runs on a GPU machine without the project
   installed; the paper preset and the EMA are loaded from their modules by file path): for each
   env and method, lerobot's ``DiffusionPolicy`` with the paper preset, timed over training steps
@@ -66,6 +67,22 @@ def _write(path: Path, data: Any) -> None:
     os.replace(tmp, path)
 
 
+def _sample_starts(root: Path) -> int | None:
+    """The trainer's sample starts in a local dataset (``sample_starts`` over its episode
+    lengths), or None where the dataset is not built here."""
+    if not (root / "meta/info.json").exists():
+        return None
+    import numpy as np
+
+    from kinder_bench.baselines.diffusion import sample_starts
+    from kinder_bench.baselines.diffusion_presets import COMMON_FIELDS
+    from kinder_gym.demos.lerobot_format import load_records
+
+    lengths = [r.num_steps for r in load_records(root)]
+    episode = np.repeat(np.arange(len(lengths)), lengths)
+    return len(sample_starts(episode, COMMON_FIELDS["drop_n_last_frames"]))
+
+
 def shapes(out: Path) -> None:
     from kinder_bench.evaluation.envs import make_env
     from kinder_bench.evaluation.protocol import PAPER_ENVS
@@ -80,6 +97,7 @@ def shapes(out: Path) -> None:
         env = make_env(env_id)
         split = StateSplit.from_env(env)
         dataset = built.get(env_id, {})
+        local = ROOT / "datasets" / env_id.removeprefix("kinder/").removesuffix("-v0")
         rows.append(
             {
                 "env_id": env_id,
@@ -90,6 +108,7 @@ def shapes(out: Path) -> None:
                 "action_dim": int(env.action_space.shape[0]),  # type: ignore[index]
                 "dataset_frames": dataset.get("build_frames"),
                 "dataset_episodes": dataset.get("build_episodes"),
+                "dataset_sample_starts": _sample_starts(local / "data/lerobot"),
             }
         )
         env.close()
@@ -202,16 +221,19 @@ def _time_chunk(cfg: Any, policy: Any, chunks: int, device: str) -> dict[str, fl
 
 def paper_steps(row: dict[str, Any], presets: ModuleType, batch: int) -> int | None:
     """Optimiser steps of the paper's epochs (``PAPER_EPOCHS`` of the presets module) over the
-    env's demonstration dataset, from its frame and episode counts alone. An epoch
-    is the dataset's sample starts in full batches (``StepBatches``); the starts are every frame
-    but the last ``drop_last`` of each episode, and the first frame of an episode no longer than
-    that, so ``max(frames - drop_last * episodes, episodes)`` (exact when every episode is longer
-    than ``drop_last`` frames, or none is)."""
-    frames, episodes = row.get("dataset_frames"), row.get("dataset_episodes")
-    if not frames or not episodes:
-        return None
-    drop_last = presets.COMMON_FIELDS["drop_n_last_frames"]
-    starts = max(frames - drop_last * episodes, episodes)
+    env's demonstration dataset. An epoch is the dataset's sample starts in full batches
+    (``StepBatches``). Where ``shapes`` found the dataset built, it counted the starts exactly
+    (``dataset_sample_starts``, as ``paper_budget_steps`` does); elsewhere they come from the
+    frame and episode counts alone: every frame but the last ``drop_last`` of each episode, and
+    the first frame of an episode no longer than that, so ``max(frames - drop_last * episodes,
+    episodes)`` (exact when every episode is longer than ``drop_last`` frames, or none is)."""
+    starts = row.get("dataset_sample_starts")
+    if not starts:
+        frames, episodes = row.get("dataset_frames"), row.get("dataset_episodes")
+        if not frames or not episodes:
+            return None
+        drop_last = presets.COMMON_FIELDS["drop_n_last_frames"]
+        starts = max(frames - drop_last * episodes, episodes)
     return int(presets.PAPER_EPOCHS * (starts // batch))
 
 

@@ -24,8 +24,9 @@ from kinder_bench.evaluation.envs import make_env
 def _random_delta_model(
     env_id: str, seed: int, drift: dict[str, float], hidden: int = 32
 ) -> DeltaModel:
-    """A random-weight model over every feature of the env; ``drift`` adds a constant delta to
-    some features (so that rollouts reach the goal)."""
+    """A random-weight model over every feature of the env that moves the robot's features and
+    those in ``drift`` (the others stay constant); ``drift`` adds a constant delta to its
+    features (so that rollouts reach the goal)."""
     env = make_env(env_id)
     box = env.unwrapped.box_space
     names = tuple(box.feature_names)
@@ -44,7 +45,7 @@ def _random_delta_model(
         "env_head.bias": np.zeros(len(rest)),
     }
     delta_mean = np.array([drift.get(n, 0.0) for n in names])
-    constant = np.array([not n.startswith("robot.") for n in names])
+    constant = np.array([not n.startswith("robot.") and n not in drift for n in names])
     return DeltaModel(
         weights, np.zeros(d), np.ones(d), np.zeros(a), np.full(a, 0.1), delta_mean,
         np.full(d, 0.01), robot, rest, constant, np.zeros(d, dtype=bool), names,
@@ -107,3 +108,20 @@ def test_batched_mbrl_planner_gives_the_plain_actions_on_motion2d(tmp_path: Path
     assert isinstance(rollouts, LearnedModelRollouts) and rollouts._world is not None
     np.testing.assert_array_equal(plain, fast)
     assert plain_agent.num_model_steps == fast_agent.num_model_steps
+
+
+def test_batched_mbrl_planner_gives_the_plain_actions_on_dynobstruction2d(tmp_path: Path) -> None:
+    """An env without a batched world: the goal check runs through the env's whole-array
+    ``goals_reached``, and some rollouts end early."""
+    env_id = "kinder/DynObstruction2D-o1-v0"
+    # With this drift some candidates' blocks reach the goal region and others do not (checked
+    # below).
+    ckpt = _random_model(env_id, tmp_path, 3, {"target_block.x": -0.05})
+    args = {"checkpoint": str(ckpt), "horizon": 40, "num_rollouts": 6}
+    plain, plain_agent = _actions(env_id, {**args, "batched": False}, 3)
+    fast, fast_agent = _actions(env_id, args, 3)
+    rollouts = fast_agent._fast
+    assert isinstance(rollouts, LearnedModelRollouts) and rollouts._world is None
+    np.testing.assert_array_equal(plain, fast)
+    assert plain_agent.num_model_steps == fast_agent.num_model_steps
+    assert len(fast) * 6 < fast_agent.num_model_steps < len(fast) * 40 * 6

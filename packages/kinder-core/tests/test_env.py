@@ -62,6 +62,21 @@ def test_same_seed_same_episode_and_rng_untouched_by_exemplar() -> None:
     assert a.reset()[0] == b.reset()[0]
 
 
+def test_goals_reached_defaults_to_goal_reached_row_by_row() -> None:
+    env = ToyReach()
+    s, _ = env.reset(seed=3)
+    target = s.get_object_from_name("target")
+    robot = s.get_object_from_name("robot")
+    rows = []
+    for offset in (0.05, 0.5, 0.0, 2.0):
+        x = s.copy()
+        x[robot][:2] = x[target][:2] + offset
+        rows.append(x.data)
+    verdicts = env.goals_reached(np.array(rows), s.layout)
+    assert verdicts.dtype == np.bool_
+    assert verdicts.tolist() == [True, False, True, False]
+
+
 def test_actions_validated_and_clipped() -> None:
     env = ToyReach()
     s, _ = env.reset(seed=0)

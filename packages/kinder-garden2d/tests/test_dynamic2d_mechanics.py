@@ -273,6 +273,33 @@ def test_scooppour_goal_counts_resting_objects_on_the_right() -> None:
     assert env.num_poured(s) == 4
 
 
+def test_obstruction_goals_reached_matches_goal_reached() -> None:
+    """The whole-array goal check equals the single one row for row, on blocks placed on,
+    beside and tilted over the surface (a third of them on it) and on one-row batches."""
+    env = DynObstruction2DEnv(num_obstructions=1)
+    rng = np.random.default_rng(1000)
+    rows = []
+    for seed in range(1000, 1010):
+        s, _ = env.reset(seed=seed)
+        b, t = s[env.target_block], s[env.target_surface]
+        for _ in range(150):
+            x = s.copy()
+            x.set(env.target_block, "x", t[0] + rng.normal(0, 0.05))
+            x.set(env.target_block, "y", t[1] + (t[13] + b[13]) / 2 + rng.normal(0, 0.02))
+            x.set(
+                env.target_block,
+                "theta",
+                rng.choice([0.0, rng.normal(0, 0.05), rng.uniform(-3, 3)]),
+            )
+            rows.append(x.data)
+    data = np.array(rows)
+    single = np.array([env.goal_reached(ObjectCentricState(s.layout, r)) for r in data])
+    assert 0.2 < single.mean() < 0.8
+    np.testing.assert_array_equal(env.goals_reached(data, s.layout), single)
+    for i in range(0, len(data), 97):
+        assert env.goals_reached(data[i : i + 1], s.layout)[0] == single[i]
+
+
 def test_pusht_goal_wraps_angles() -> None:
     """A kept correction: upstream compares raw angles, so a block 0.02 rad from its goal across
     ±π never counts; ours wraps the difference."""

@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from kinder_core.docs import parse_doc_sections
 from kinder_core.objects import Object
 from kinder_core.spaces import FeatureBounds, ObjectCentricBoxSpace, ObjectCentricStateSpace
-from kinder_core.state import FloatArray, ObjectCentricState
+from kinder_core.state import FloatArray, ObjectCentricState, StateLayout
 
 RESET_OPTIONS = ("init_state",)
 
@@ -99,6 +99,16 @@ class ObjectCentricEnv(gymnasium.Env[ObjectCentricState, FloatArray], abc.ABC):
     @abc.abstractmethod
     def goal_reached(self, state: ObjectCentricState) -> bool:
         """The task's success predicate."""
+
+    def goals_reached(self, data: FloatArray, layout: StateLayout) -> NDArray[np.bool_]:
+        """``(N,)``: :meth:`goal_reached` of the ``N`` states whose feature vectors are the rows
+        of ``data`` in ``layout``. Planners that score many candidate states at once (MBRL's
+        learned-model rollouts) call it. The default loops over the rows; a family may override
+        it with whole-array numpy that computes each row's verdict with the same operations as
+        :meth:`goal_reached`, so the verdicts are the same."""
+        return np.array(
+            [self.goal_reached(ObjectCentricState(layout, row)) for row in data], dtype=bool
+        )
 
     @abc.abstractmethod
     def _render_state(self, state: ObjectCentricState) -> NDArray[np.uint8]:

@@ -30,9 +30,10 @@ Planning speed: the agent scores the MPC's candidates together (:class:`LearnedM
 with the MPC's ``batched`` argument, the default): one model call per step for all live
 candidates, each of whose rows is computed exactly as a one-row call computes it (a stack of
 one-row products, not one matrix product, whose BLAS kernel may round differently), the goal
-check and reward vectorised on the Kinematic2D families (their batched worlds) and the −1 reward
-without a call where another env does not override it. The costs, hence the actions, equal
-the one-by-one loop's.
+check and reward vectorised on the Kinematic2D families (their batched worlds), the goal check of
+other envs through their ``goals_reached`` (whole-array numpy on DynObstruction2D, a loop over
+``goal_reached`` by default), and the −1 reward without a call where an env does not override
+it. The costs, hence the actions, equal the one-by-one loop's.
 
 Held-out evaluation (:func:`open_loop_errors`): a deterministic 10% of the episodes (at least one)
 is held out; from every start frame the model is rolled out open loop for ``k`` steps on the
@@ -583,9 +584,7 @@ class LearnedModelRollouts:
             if self._world is not None:
                 terminated: BoolArray = np.asarray(self._world.goal(data), dtype=bool)
             else:
-                terminated = np.array(
-                    [model.goal_reached(ObjectCentricState(layout, d)) for d in data]
-                )
+                terminated = np.asarray(model.goals_reached(data, layout), dtype=bool)
             if self._world is not None:
                 rewards: FloatArray = np.asarray(self._world.reward(terminated), dtype=np.float64)
             elif self._default_reward:

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from kinder_core import Object, ObjectCentricState, ObjectCentricStateSpace
+from kinder_core.state import FloatArray, StateLayout
 from kinder_garden2d.dynamic2d import object_types as ot
 from kinder_garden2d.dynamic2d.base_env import (
     Dynamic2DEnv,
@@ -20,11 +21,14 @@ from kinder_garden2d.dynamic2d.base_env import (
     upstream_walls,
 )
 from kinder_garden2d.dynamic2d.geometry import (
+    BoolArray,
     WorldShape,
+    are_on,
     is_on,
     kin_robot_geometry,
     overlaps,
     place,
+    rect_polys,
     rect_shape,
     transform,
 )
@@ -41,6 +45,10 @@ from kinder_garden2d.dynamic2d.physics import Scene, StaticBox
 from kinder_garden2d.rendering import Canvas
 
 GOLDEN = (1 + math.sqrt(5)) / 2
+
+
+#: A rectangle's pose and size features, as :func:`rect_polys` takes them.
+_RECT = ("x", "y", "theta", "width", "height")
 
 
 @dataclass(frozen=True)
@@ -319,6 +327,15 @@ class DynObstruction2DEnv(Dynamic2DEnv):
         block = transform(rect_shape(b[12], b[13]).polys[0], b[0], b[1], b[2])
         surface = transform(rect_shape(s[12], s[13]).polys[0], s[0], s[1], s[2])
         return is_on(block, surface, self.config.goal_tolerance)
+
+    def goals_reached(self, data: FloatArray, layout: StateLayout) -> BoolArray:
+        """:meth:`goal_reached` of every row of ``data``, in whole-array numpy with the same
+        operations per row (:func:`rect_polys`, :func:`are_on`)."""
+        idx = layout.indices([self.target_block, self.target_surface], _RECT)
+        b, s = data[:, idx[0]], data[:, idx[1]]
+        block = rect_polys(b[:, 0], b[:, 1], b[:, 2], b[:, 3], b[:, 4])
+        surface = rect_polys(s[:, 0], s[:, 1], s[:, 2], s[:, 3], s[:, 4])
+        return are_on(block, surface, self.config.goal_tolerance)
 
     def _draw_extras(self, canvas: Canvas, state: ObjectCentricState) -> None:
         s = state[self.target_surface]

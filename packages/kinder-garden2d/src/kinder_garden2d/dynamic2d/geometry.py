@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 Poly = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
 
 
 def box(xmin: float, xmax: float, ymin: float, ymax: float) -> Poly:
@@ -186,6 +187,36 @@ def is_on(block: Poly, surface: Poly, tol: float) -> bool:
     inside the (convex) surface."""
     lowest = block[np.argsort(block[:, 1], kind="stable")[:2]] - np.array([0.0, tol])
     return all(point_in_convex(v, surface) for v in lowest)
+
+
+#: The corners of ``box(-hw, hw, -hh, hh)`` as signs of ``(hw, hh)`` (a sign flip is exact).
+_BOX_SIGNS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+
+
+def rect_polys(x: Poly, y: Poly, theta: Poly, width: Poly, height: Poly) -> NDArray[np.float64]:
+    """``(N, 4, 2)``: row ``n`` is ``transform(rect_shape(width[n], height[n]).polys[0], x[n],
+    y[n], theta[n])``, computed with the same operations (``math.cos`` and ``math.sin``, one
+    4×2 by 2×2 product per row), so it equals that polygon bit for bit."""
+    local = _BOX_SIGNS * np.stack([width / 2, height / 2], -1)[:, None, :]
+    angles = theta.tolist()
+    c = np.array([math.cos(t) for t in angles])
+    s = np.array([math.sin(t) for t in angles])
+    rot = np.stack([c, s, -s, c], -1).reshape(-1, 2, 2)
+    out: NDArray[np.float64] = local @ rot + np.stack([x, y], -1)[:, None, :]
+    return out
+
+
+def are_on(blocks: NDArray[np.float64], surfaces: NDArray[np.float64], tol: float) -> BoolArray:
+    """``(N,)``: :func:`is_on` of each row's block and surface ``(N, K, 2)``, with its
+    operations elementwise."""
+    rows = np.arange(len(blocks))[:, None]
+    order = np.argsort(blocks[..., 1], axis=1, kind="stable")[:, :2]
+    lowest = blocks[rows, order] - np.array([0.0, tol])  # (N, 2, 2)
+    edge = np.roll(surfaces, -1, axis=1) - surfaces  # (N, K, 2)
+    to_pt = lowest[:, :, None, :] - surfaces[:, None, :, :]  # (N, 2, K, 2)
+    cross = edge[:, None, :, 0] * to_pt[..., 1] - edge[:, None, :, 1] * to_pt[..., 0]
+    out: BoolArray = np.all(cross >= 0, axis=(1, 2))
+    return out
 
 
 def wrap_angle(theta: float) -> float:
