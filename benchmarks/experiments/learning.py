@@ -73,19 +73,6 @@ def parse_args(method: str, argv: list[str] | None = None) -> argparse.Namespace
     return args
 
 
-def diffusion_budget(
-    method: str, env_id: str, preset: str, batch: int, steps: int, paper_budget: bool
-) -> str:
-    """The training budget a DP/DPES run records: the paper's own (its settings file's words)
-    when it trained the paper's epochs with the paper preset and batch, else what it trained."""
-    from kinder_bench.baselines.diffusion_presets import PRESET_BATCH
-    from kinder_bench.reporting.paper import paper_settings
-
-    if paper_budget and preset == "paper" and batch == PRESET_BATCH["paper"]:
-        return str(paper_settings(method, env_id)["training"])
-    return f"{steps} steps × batch {batch}, preset {preset}"
-
-
 def dataset_dir(datasets: Path, env_id: str) -> Path:
     from kinder_bench.evaluation.envs import short_id
 
@@ -153,6 +140,7 @@ def main(argv: list[str] | None = None) -> int:
                 DiffusionTrainArgs,
                 paper_budget_steps,
                 train_diffusion,
+                training_budget,
             )
             from kinder_bench.baselines.diffusion_presets import PRESET_BATCH
 
@@ -173,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
                     save_every=args.save_every,
                 )
             )
-            budget = diffusion_budget(method, env_id, args.preset, batch, steps, args.paper_budget)
+            budget = training_budget(method, env_id, args.preset, batch, steps, args.paper_budget)
             agent_args = {"checkpoint": str(run), "device": args.device}
         cells.append(
             {

@@ -182,6 +182,9 @@ def test_ood_command_evaluates_every_variant(
     assert "Motion2D-p0" in table and "Motion2D-p1" in table
     records = [json.loads(line) for line in (tmp_path / "ood/results.jsonl").open()]
     assert len(records) == 2 and all(r["error"] is None for r in records)
+    # Each run records the checkpoint's budget: 3 steps of the cpu preset, not the paper's.
+    config = json.loads((tmp_path / "ood/config.json").read_text())
+    assert {run["training"] for run in config["runs"]} == {"3 steps × batch 4, preset cpu"}
 
 
 def test_dpes_normalises_the_environment_state(motion: Path) -> None:

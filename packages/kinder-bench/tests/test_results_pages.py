@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from kinder_bench.agents import agent_class
+from kinder_bench.baselines.diffusion import training_budget
 from kinder_bench.evaluation.metrics import Stat
 from kinder_bench.reporting.paper import Result, paper_settings, results_from_csv
 from kinder_bench.reporting.results_doc import (
@@ -20,7 +21,9 @@ from kinder_bench.reporting.results_doc import (
     diffusion_reason,
     heldout_markdown,
     load_paper_noise,
+    load_paper_ood,
     noise_markdown,
+    ood_markdown,
     summary_files,
     unbacked_quotes,
 )
@@ -269,7 +272,48 @@ def test_the_diffusion_note_quotes_the_gpu_measurement_and_a_command_that_runs()
     args = learning.parse_args("dp", [a.replace("<env>", "Motion2D-p0") for a in argv])
     assert args.paper_budget and args.device == "cuda" and args.episodes == 50
     paper = paper_settings("dp", MOTION)["training"]
-    assert learning.diffusion_budget("dp", MOTION, "paper", 64, 9, True) == paper
-    assert learning.diffusion_budget("dp", MOTION, "paper", 64, 9, False) != paper
-    cpu = learning.diffusion_budget("dp", MOTION, "cpu", 16, 9, True)
+    assert training_budget("dp", MOTION, "paper", 64, 9, True) == paper
+    assert training_budget("dp", MOTION, "paper", 64, 9, False) != paper
+    cpu = training_budget("dp", MOTION, "cpu", 16, 9, True)
     assert cpu == "9 steps × batch 16, preset cpu"
+
+
+def test_ood_table_fills_the_papers_row_only_at_its_protocol() -> None:
+    paper = load_paper_ood()
+    envs = [f"kinder/DynObstruction2D-o{n}-v0" for n in (1, 0, 2, 3)]
+    assert list(dict.fromkeys(e for e, _ in paper)) == envs
+    assert paper[(envs[1], "dp")] == "0.35" and paper[(envs[3], "vla")] == "0.40"
+    empty = ood_markdown([])
+    assert "| DP (paper) |  | n/r (0.33) | n/r (0.35) | n/r (0.30) | n/r (0.26) |" in empty
+
+    def dp(env: str, sr: float, episodes: int, training: str) -> Result:
+        stat = Stat(sr, 0.05, 5)
+        return Result(
+            env, "dp", "dp", f"{env[-5:]}{episodes}", stat, stat, stat, 5, 5 * episodes, 0,
+            "kinder train ood ...", seeds=(0, 1, 2, 3, 4), max_steps=200,
+            agent_args={"checkpoint": f"runs/{training[:3]}", "device": "cpu"},
+            training=training,
+        )  # fmt: skip
+
+    # A small budget on four envs: its own row, named by what differs, one SR per env.
+    small = [
+        dp(e, 0.1 * (i + 1), 5, "1500 steps × batch 16, preset cpu") for i, e in enumerate(envs)
+    ]
+    md = ood_markdown(small)
+    assert "| DP (paper) |  | n/r (0.33) |" in md
+    assert (
+        "| DP · 5×5, training 1500 steps × batch 16, preset cpu | 5 × 5 | 0.10 ± 0.05 | "
+        "0.20 ± 0.05 | 0.30 ± 0.05 | 0.40 ± 0.05 |"
+    ) in md
+    # The paper's budget at 5 × 50 fills the paper's row, on o0 as on o1.
+    budget = str(paper_settings("dp", envs[0])["training"])
+    full = [dp(e, 0.3, 50, budget) for e in envs[:2]]
+    md = ood_markdown(full)
+    assert "| DP (paper) | 5 × 50 | 0.30 ± 0.05 (0.33) | 0.30 ± 0.05 (0.35) | n/r (0.30) |" in md
+    assert "| DP ·" not in md
+    # A checkpoint evaluated only on the training env is a first-table variant, not a row here.
+    assert "| DP ·" not in ood_markdown(small[:1])
+    with pytest.raises(ValueError, match="row 2"):
+        load_paper_ood("env_id,baseline,sr\nkinder/X-v0,dp,high\n")
+    with pytest.raises(ValueError, match="header"):
+        load_paper_ood("env,baseline\n")

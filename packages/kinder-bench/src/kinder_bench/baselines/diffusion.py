@@ -228,6 +228,31 @@ def paper_budget_steps(spec: DatasetSpec, batch_size: int) -> int:
     return PAPER_EPOCHS * (len(starts) // batch_size)
 
 
+def training_budget(
+    method: str, env_id: str, preset: str, batch: int, steps: int, paper_epochs: bool
+) -> str:
+    """The training budget an evaluation of DP/DPES records (``RunConfig.training``): the
+    paper's own words (``paper_settings.csv``) when the policy trained the paper's epochs with
+    the paper preset and batch, else what it trained."""
+    from kinder_bench.reporting.paper import paper_settings
+
+    if paper_epochs and preset == "paper" and batch == PRESET_BATCH["paper"]:
+        return str(paper_settings(method, env_id)["training"])
+    return f"{steps} steps × batch {batch}, preset {preset}"
+
+
+def checkpoint_training(ckpt: Checkpoint) -> str:
+    """:func:`training_budget` of a DP/DPES checkpoint: the steps it has trained, and the
+    paper's epochs only when those are :func:`paper_budget_steps` of its dataset."""
+    preset = str(ckpt.args["preset"])
+    batch = int(ckpt.args["batch_size"] or PRESET_BATCH[preset])
+    paper = preset == "paper" and batch == PRESET_BATCH["paper"]
+    if paper:
+        spec = read_dataset_spec(ckpt.info["dataset"])
+        paper = ckpt.step == paper_budget_steps(spec, batch)
+    return training_budget(ckpt.method, ckpt.info["env_id"], preset, batch, ckpt.step, paper)
+
+
 class StepBatches:
     """The batches of steps ``[start, stop)``: epoch ``e`` is a permutation of ``indices`` drawn
     from ``default_rng([seed, e])``, cut into full batches, so batch ``k`` depends only on

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
+from kinder_bench.baselines.diffusion import checkpoint_training
 from kinder_bench.evaluation.runner import RunConfig, run_benchmark
 from kinder_bench.reporting.report import write_report
 from kinder_bench.training.checkpoints import load_checkpoint
@@ -33,7 +34,9 @@ def run_ood(
     progress: bool = True,
     device: str = "cpu",
 ) -> str:
-    """Evaluate ``checkpoint`` on :data:`OOD_ENVS` into ``out``; returns the report table."""
+    """Evaluate ``checkpoint`` on :data:`OOD_ENVS` into ``out``; returns the report table.
+    Every run records the checkpoint's training budget (:func:`checkpoint_training`), so that
+    the results page can tell a run at the paper's budget from a smaller one."""
     ckpt = load_checkpoint(checkpoint, ("dp", "dpes"))
     if ckpt.info.get("env_id") != TRAIN_ENV:
         raise ValueError(
@@ -48,6 +51,7 @@ def run_ood(
             seeds=tuple(seeds),
             episodes=episodes,
             max_steps=OOD_MAX_STEPS,
+            training=checkpoint_training(ckpt),
         )
         for env_id in OOD_ENVS
     ]

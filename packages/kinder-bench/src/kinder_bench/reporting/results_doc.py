@@ -554,6 +554,95 @@ def subtasks_markdown(
     return "\n".join(lines)
 
 
+OOD_FILE = "paper_ood.csv"
+
+
+def load_paper_ood(text: str | None = None) -> dict[tuple[str, str], str]:
+    """The paper's out-of-distribution table, ``(env id, baseline) → SR`` as printed, in the
+    file's order, the training env first (``kinder_bench/data/paper_ood.csv``; ``#`` lines are
+    comments). Raises ValueError naming the row when the header or a row is malformed."""
+    if text is None:
+        text = resources.files("kinder_bench.data").joinpath(OOD_FILE).read_text("utf-8")
+    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
+    rows = list(csv.reader(lines))
+    if not rows or [c.strip() for c in rows[0]] != ["env_id", "baseline", "sr"]:
+        raise ValueError(f"{OOD_FILE}: expected the header env_id,baseline,sr")
+    out: dict[tuple[str, str], str] = {}
+    for n, row in enumerate(rows[1:], start=2):
+        try:
+            if len(row) != 3:
+                raise ValueError("expected 3 fields")
+            float(row[2])
+            out[(row[0].strip(), row[1].strip())] = row[2].strip()
+        except ValueError as e:
+            raise ValueError(f"{OOD_FILE}: row {n} {row}: {e}") from None
+    return out
+
+
+def ood_markdown(
+    results: Sequence[Result], paper_ood: Mapping[tuple[str, str], str] | None = None
+) -> str:
+    """The paper's out-of-distribution table beside ours: a column per env (the training env
+    first), a row per baseline the paper ran (``ours (paper)``; ours only from a run whose
+    settings, apart from the env, are the paper's protocol on the training env, ``n/r``
+    without one), then a row per other checkpoint of those baselines evaluated beyond the
+    training env, named by what differs (:func:`~kinder_bench.reporting.paper.variant_name` on
+    the training env), with its SR on each env it ran."""
+    paper = load_paper_ood() if paper_ood is None else paper_ood
+    envs = list(dict.fromkeys(e for e, _ in paper))
+    train_env = envs[0]
+    baselines = list(dict.fromkeys(b for _, b in paper))
+    table = load_paper()
+
+    def as_trained(r: Result) -> Result:
+        return dataclasses.replace(r, env_id=train_env)
+
+    runs = [r for r in results if r.env_id in envs and r.agent in baselines]
+
+    def paper_run(agent: str, env: str) -> Result | None:
+        return next(
+            (
+                r
+                for r in runs
+                if r.agent == agent and r.env_id == env and at_paper_protocol(as_trained(r), table)
+            ),
+            None,
+        )
+
+    lines = [
+        "| Run | seeds × episodes | " + " | ".join(short_id(e) for e in envs) + " |",
+        "|---|---|" + "---|" * len(envs),
+    ]
+    used: set[int] = set()
+    for agent in baselines:
+        cells, budget = [], ""
+        for env in envs:
+            run = paper_run(agent, env)
+            if run is not None:
+                used.add(id(run))
+                budget = _seeds_by_episodes(run)
+            ours = fmt_stat(run.success, 2) if run is not None else "n/r"
+            cells.append(f"{ours} ({paper[(env, agent)]})" if (env, agent) in paper else "")
+        method = table.method_of(agent) or agent
+        lines.append(f"| {method} (paper) | {budget} | " + " | ".join(cells) + " |")
+    groups: dict[tuple[str, str], list[Result]] = {}
+    for r in runs:
+        if id(r) not in used:
+            key = (r.agent, str((r.agent_args or {}).get("checkpoint", "")))
+            groups.setdefault(key, []).append(r)
+    for group in groups.values():
+        if all(r.env_id == train_env for r in group):
+            continue  # a plain run on the training env: a variant of the first table
+        by_env = {r.env_id: r for r in group}
+        cells = [fmt_stat(by_env[e].success, 2) if e in by_env else "" for e in envs]
+        lines.append(
+            f"| {variant_name(as_trained(group[0]))} | {_seeds_by_episodes(group[0])} | "
+            + " | ".join(cells)
+            + " |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def results_markdown(files: Sequence[Path], link_root: Path) -> str:
     """The page for the given summary files (links relative to ``link_root``, the page's folder).
 
@@ -659,6 +748,19 @@ def results_markdown(files: Sequence[Path], link_root: Path) -> str:
         "differs.",
         "",
         subtasks_markdown(everything).rstrip("\n"),
+        "",
+        "## DynObstruction2D out of distribution",
+        "",
+        "The paper's out-of-distribution table: imitation policies trained on "
+        "DynObstruction2D-o1's demonstrations (one obstruction) and evaluated on its variants "
+        "with 0, 2 and 3 obstructions (`kinder train ood --checkpoint RUN --out DIR`: the "
+        "runner on o0–o3 at the paper's 200-step budget; DP sees only the image and the robot "
+        "state, which every variant has). Each cell: ours (paper) SR; ours only from a run at "
+        "the paper's protocol apart from the env (seeds 0–4 × 50, the paper's training budget). "
+        "The paper's rows need a GPU (DP's budget, note [c]) and π0.5 (VLA, note [b]); other "
+        "checkpoints evaluated beyond o1 follow, named by what differs.",
+        "",
+        ood_markdown(everything).rstrip("\n"),
         "",
         "## Deviations of the baselines from the paper",
         "",
