@@ -19,6 +19,7 @@ import pytest
 
 from kinder_core import ObjectCentricState, make, make_object_centric
 from kinder_garden2d.dynamic2d.dyn_obstruction2d import DynObstruction2DEnv
+from kinder_garden2d.dynamic2d.dyn_pushpullhook2d import DynPushPullHook2DEnv
 from kinder_garden2d.dynamic2d.dyn_pusht2d import DynPushT2DEnv
 from kinder_garden2d.dynamic2d.dyn_scooppour2d import DynScoopPour2DEnv
 
@@ -291,6 +292,29 @@ def test_obstruction_goals_reached_matches_goal_reached() -> None:
                 "theta",
                 rng.choice([0.0, rng.normal(0, 0.05), rng.uniform(-3, 3)]),
             )
+            rows.append(x.data)
+    data = np.array(rows)
+    single = np.array([env.goal_reached(ObjectCentricState(s.layout, r)) for r in data])
+    assert 0.2 < single.mean() < 0.8
+    np.testing.assert_array_equal(env.goals_reached(data, s.layout), single)
+    for i in range(0, len(data), 97):
+        assert env.goals_reached(data[i : i + 1], s.layout)[0] == single[i]
+
+
+def test_pushpullhook_goals_reached_matches_goal_reached() -> None:
+    """As for DynObstruction2D: blocks placed across, touching and clear of the middle wall,
+    at random angles (about half of them in it)."""
+    env = DynPushPullHook2DEnv(num_obstructions=5)
+    rng = np.random.default_rng(1001)
+    wall_y = float(env.middle_wall.poly[:, 1].mean())
+    rows = []
+    for seed in range(1000, 1005):
+        s, _ = env.reset(seed=seed)
+        for _ in range(200):
+            x = s.copy()
+            x.set(env.target_block, "x", rng.uniform(0.2, 3.3))
+            x.set(env.target_block, "y", wall_y + rng.normal(0, 0.2))
+            x.set(env.target_block, "theta", rng.choice([0.0, rng.uniform(-3, 3)]))
             rows.append(x.data)
     data = np.array(rows)
     single = np.array([env.goal_reached(ObjectCentricState(s.layout, r)) for r in data])

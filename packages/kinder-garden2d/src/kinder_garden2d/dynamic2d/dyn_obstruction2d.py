@@ -21,6 +21,7 @@ from kinder_garden2d.dynamic2d.base_env import (
     upstream_walls,
 )
 from kinder_garden2d.dynamic2d.geometry import (
+    RECT_FEATURES,
     BoolArray,
     WorldShape,
     are_on,
@@ -45,10 +46,6 @@ from kinder_garden2d.dynamic2d.physics import Scene, StaticBox
 from kinder_garden2d.rendering import Canvas
 
 GOLDEN = (1 + math.sqrt(5)) / 2
-
-
-#: A rectangle's pose and size features, as :func:`rect_polys` takes them.
-_RECT = ("x", "y", "theta", "width", "height")
 
 
 @dataclass(frozen=True)
@@ -331,7 +328,7 @@ class DynObstruction2DEnv(Dynamic2DEnv):
     def goals_reached(self, data: FloatArray, layout: StateLayout) -> BoolArray:
         """:meth:`goal_reached` of every row of ``data``, in whole-array numpy with the same
         operations per row (:func:`rect_polys`, :func:`are_on`)."""
-        idx = layout.indices([self.target_block, self.target_surface], _RECT)
+        idx = layout.indices([self.target_block, self.target_surface], RECT_FEATURES)
         b, s = data[:, idx[0]], data[:, idx[1]]
         block = rect_polys(b[:, 0], b[:, 1], b[:, 2], b[:, 3], b[:, 4])
         surface = rect_polys(s[:, 0], s[:, 1], s[:, 2], s[:, 3], s[:, 4])

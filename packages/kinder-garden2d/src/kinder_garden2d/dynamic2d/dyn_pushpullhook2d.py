@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from kinder_core import Object, ObjectCentricState, ObjectCentricStateSpace
+from kinder_core.state import FloatArray, StateLayout
 from kinder_garden2d.dynamic2d import object_types as ot
 from kinder_garden2d.dynamic2d.base_env import (
     Dynamic2DEnv,
@@ -19,13 +20,17 @@ from kinder_garden2d.dynamic2d.base_env import (
     upstream_walls,
 )
 from kinder_garden2d.dynamic2d.geometry import (
+    RECT_FEATURES,
+    BoolArray,
     WorldShape,
     box,
     convex_penetration,
+    convex_penetrations,
     kin_robot_geometry,
     lobject_shape,
     overlaps,
     place,
+    rect_polys,
     rect_shape,
     transform,
 )
@@ -296,3 +301,12 @@ class DynPushPullHook2DEnv(Dynamic2DEnv):
         b = state[self.target_block]
         block = transform(rect_shape(b[12], b[13]).polys[0], b[0], b[1], b[2])
         return convex_penetration(block, self.middle_wall.poly) > 0.0
+
+    def goals_reached(self, data: FloatArray, layout: StateLayout) -> BoolArray:
+        """:meth:`goal_reached` of every row of ``data``, in whole-array numpy with the same
+        operations per row (:func:`rect_polys`, :func:`convex_penetrations`)."""
+        b = data[:, layout.indices([self.target_block], RECT_FEATURES)[0]]
+        block = rect_polys(b[:, 0], b[:, 1], b[:, 2], b[:, 3], b[:, 4])
+        wall = np.broadcast_to(self.middle_wall.poly, (len(data), *self.middle_wall.poly.shape))
+        out: BoolArray = convex_penetrations(block, wall) > 0.0
+        return out

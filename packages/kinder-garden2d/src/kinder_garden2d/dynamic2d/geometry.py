@@ -127,6 +127,24 @@ def convex_penetration(p: Poly, q: Poly) -> float:
     return float(overlap.min())
 
 
+def convex_penetrations(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``(N,)``: :func:`convex_penetration` of each row's polygons ``p[n]`` and ``q[n]``
+    (``(N, K, 2)`` and ``(N, M, 2)``), with the same operations per row (one product of each
+    polygon with its row's axes), so each equals the single call bit for bit."""
+
+    def axes(poly: NDArray[np.float64]) -> NDArray[np.float64]:
+        e = np.roll(poly, -1, axis=1) - poly
+        n = np.stack([-e[..., 1], e[..., 0]], axis=-1)
+        out: NDArray[np.float64] = n / np.linalg.norm(n, axis=-1, keepdims=True)
+        return out
+
+    at = np.concatenate([axes(p), axes(q)], axis=1).transpose(0, 2, 1)
+    pp, qq = p @ at, q @ at
+    hi = np.minimum(pp.max(axis=1), qq.max(axis=1))
+    overlap: NDArray[np.float64] = hi - np.maximum(pp.min(axis=1), qq.min(axis=1))
+    return overlap.min(axis=1)
+
+
 def circle_poly_penetration(cx: float, cy: float, r: float, p: Poly) -> float:
     """Penetration depth of a circle and a convex polygon (> 0 overlap)."""
     c = np.array([cx, cy])
@@ -188,6 +206,9 @@ def is_on(block: Poly, surface: Poly, tol: float) -> bool:
     lowest = block[np.argsort(block[:, 1], kind="stable")[:2]] - np.array([0.0, tol])
     return all(point_in_convex(v, surface) for v in lowest)
 
+
+#: A rectangle's pose and size features, in the order :func:`rect_polys` takes them.
+RECT_FEATURES = ("x", "y", "theta", "width", "height")
 
 #: The corners of ``box(-hw, hw, -hh, hh)`` as signs of ``(hw, hh)`` (a sign flip is exact).
 _BOX_SIGNS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
