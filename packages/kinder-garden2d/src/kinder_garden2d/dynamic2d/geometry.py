@@ -141,8 +141,9 @@ def convex_penetrations(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArr
     at = np.concatenate([axes(p), axes(q)], axis=1).transpose(0, 2, 1)
     pp, qq = p @ at, q @ at
     hi = np.minimum(pp.max(axis=1), qq.max(axis=1))
-    overlap: NDArray[np.float64] = hi - np.maximum(pp.min(axis=1), qq.min(axis=1))
-    return overlap.min(axis=1)
+    overlap = hi - np.maximum(pp.min(axis=1), qq.min(axis=1))
+    depth: NDArray[np.float64] = overlap.min(axis=1)
+    return depth
 
 
 def circle_poly_penetration(cx: float, cy: float, r: float, p: Poly) -> float:
