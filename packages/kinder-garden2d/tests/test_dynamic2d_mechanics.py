@@ -274,6 +274,16 @@ def test_scooppour_goal_counts_resting_objects_on_the_right() -> None:
     assert env.num_poured(s) == 4
 
 
+def _check_goals_reached(env: Any, data: np.ndarray, layout: Any) -> None:
+    """``env.goals_reached`` gives ``goal_reached``'s verdict on every row of ``data`` (a mix
+    of both verdicts), in the whole batch and in one-row batches."""
+    single = np.array([env.goal_reached(ObjectCentricState(layout, r)) for r in data])
+    assert 0.2 < single.mean() < 0.8
+    np.testing.assert_array_equal(env.goals_reached(data, layout), single)
+    for i in range(0, len(data), 97):
+        assert env.goals_reached(data[i : i + 1], layout)[0] == single[i]
+
+
 def test_obstruction_goals_reached_matches_goal_reached() -> None:
     """The whole-array goal check equals the single one row for row, on blocks placed on,
     beside and tilted over the surface (a third of them on it) and on one-row batches."""
@@ -293,12 +303,7 @@ def test_obstruction_goals_reached_matches_goal_reached() -> None:
                 rng.choice([0.0, rng.normal(0, 0.05), rng.uniform(-3, 3)]),
             )
             rows.append(x.data)
-    data = np.array(rows)
-    single = np.array([env.goal_reached(ObjectCentricState(s.layout, r)) for r in data])
-    assert 0.2 < single.mean() < 0.8
-    np.testing.assert_array_equal(env.goals_reached(data, s.layout), single)
-    for i in range(0, len(data), 97):
-        assert env.goals_reached(data[i : i + 1], s.layout)[0] == single[i]
+    _check_goals_reached(env, np.array(rows), s.layout)
 
 
 def test_pushpullhook_goals_reached_matches_goal_reached() -> None:
@@ -316,12 +321,7 @@ def test_pushpullhook_goals_reached_matches_goal_reached() -> None:
             x.set(env.target_block, "y", wall_y + rng.normal(0, 0.2))
             x.set(env.target_block, "theta", rng.choice([0.0, rng.uniform(-3, 3)]))
             rows.append(x.data)
-    data = np.array(rows)
-    single = np.array([env.goal_reached(ObjectCentricState(s.layout, r)) for r in data])
-    assert 0.2 < single.mean() < 0.8
-    np.testing.assert_array_equal(env.goals_reached(data, s.layout), single)
-    for i in range(0, len(data), 97):
-        assert env.goals_reached(data[i : i + 1], s.layout)[0] == single[i]
+    _check_goals_reached(env, np.array(rows), s.layout)
 
 
 def test_pusht_goal_wraps_angles() -> None:
