@@ -109,6 +109,31 @@ def test_paper_budget_is_5001_epochs_of_full_batches(motion: Path) -> None:
     assert paper_budget_steps(read_dataset_spec(motion), 10**6) == 0
 
 
+def test_a_checkpoint_records_the_papers_budget_only_when_it_trained_it(motion: Path) -> None:
+    from kinder_bench.baselines.diffusion import checkpoint_training
+    from kinder_bench.reporting.paper import paper_settings
+    from kinder_bench.training.checkpoints import Checkpoint
+
+    paper_steps = paper_budget_steps(read_dataset_spec(motion), 64)
+
+    def ckpt(step: int, dataset: Path, preset: str = "paper") -> Checkpoint:
+        args = {"preset": preset, "batch_size": None}
+        info = {"env_id": MOTION, "dataset": str(dataset)}
+        return Checkpoint(Path("ckpt"), "dp", step, args, {}, False, info)
+
+    assert (
+        checkpoint_training(ckpt(paper_steps, motion)) == paper_settings("dp", MOTION)["training"]
+    )
+    short = f"{paper_steps - 1} steps × batch 64, preset paper"
+    assert checkpoint_training(ckpt(paper_steps - 1, motion)) == short
+    assert checkpoint_training(ckpt(9, motion, "cpu")) == "9 steps × batch 16, preset cpu"
+    # The dataset is not where the trainer recorded it: the paper's budget cannot be checked.
+    missing = motion.parent / "elsewhere"
+    assert checkpoint_training(ckpt(paper_steps, missing)).endswith(
+        "steps × batch 64, preset paper"
+    )
+
+
 def test_dp_checkpoints_logs_and_resumes_bit_identically(
     dp_run: Path, motion: Path, tmp_path: Path
 ) -> None:

@@ -243,13 +243,19 @@ def training_budget(
 
 def checkpoint_training(ckpt: Checkpoint) -> str:
     """:func:`training_budget` of a DP/DPES checkpoint: the steps it has trained, and the
-    paper's epochs only when those are :func:`paper_budget_steps` of its dataset."""
+    paper's epochs only when those are :func:`paper_budget_steps` of its dataset (which must be
+    at the path the trainer recorded: where it is not, the paper's budget cannot be checked and
+    the steps are recorded as such)."""
     preset = str(ckpt.args["preset"])
     batch = int(ckpt.args["batch_size"] or PRESET_BATCH[preset])
     paper = preset == "paper" and batch == PRESET_BATCH["paper"]
     if paper:
-        spec = read_dataset_spec(ckpt.info["dataset"])
-        paper = ckpt.step == paper_budget_steps(spec, batch)
+        try:
+            spec = read_dataset_spec(ckpt.info["dataset"])
+        except FileNotFoundError:
+            paper = False
+        else:
+            paper = ckpt.step == paper_budget_steps(spec, batch)
     return training_budget(ckpt.method, ckpt.info["env_id"], preset, batch, ckpt.step, paper)
 
 
