@@ -68,23 +68,16 @@ def _write(path: Path, data: Any) -> None:
 
 
 def _sample_starts(root: Path) -> int | None:
-    """The trainer's sample starts in a local dataset (``sample_starts`` over its episode
-    lengths), or None where the dataset is not built here."""
+    """The trainer's sample starts in a local dataset, or None where it is not built here."""
     if not (root / "meta/info.json").exists():
         return None
-    import numpy as np
+    from kinder_bench.baselines.diffusion import dataset_sample_starts
 
-    from kinder_bench.baselines.diffusion import sample_starts
-    from kinder_bench.baselines.diffusion_presets import COMMON_FIELDS
-    from kinder_gym.demos.lerobot_format import load_records
-
-    lengths = [r.num_steps for r in load_records(root)]
-    episode = np.repeat(np.arange(len(lengths)), lengths)
-    return len(sample_starts(episode, COMMON_FIELDS["drop_n_last_frames"]))
+    return dataset_sample_starts(root)
 
 
 def shapes(out: Path) -> None:
-    from kinder_bench.evaluation.envs import make_env
+    from kinder_bench.evaluation.envs import make_env, short_id
     from kinder_bench.evaluation.protocol import PAPER_ENVS
     from kinder_gym.demos.layout import IMAGE_SIZE, StateSplit, camera_names
 
@@ -97,7 +90,7 @@ def shapes(out: Path) -> None:
         env = make_env(env_id)
         split = StateSplit.from_env(env)
         dataset = built.get(env_id, {})
-        local = ROOT / "datasets" / env_id.removeprefix("kinder/").removesuffix("-v0")
+        local = ROOT / "datasets" / short_id(env_id)
         rows.append(
             {
                 "env_id": env_id,

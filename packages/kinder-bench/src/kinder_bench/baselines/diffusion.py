@@ -216,16 +216,21 @@ def sample_starts(episode_index: NDArray[np.int64], drop_last: int) -> NDArray[n
     return np.asarray(starts, dtype=np.int64)
 
 
-def paper_budget_steps(spec: DatasetSpec, batch_size: int) -> int:
-    """Optimiser steps of the paper's budget on a dataset: :data:`PAPER_EPOCHS` epochs, each
-    the dataset's sample starts (:func:`sample_starts`) in full batches, as
-    :class:`StepBatches` draws them."""
+def dataset_sample_starts(root: Path) -> int:
+    """How many sample starts (:func:`sample_starts`) the trainer draws from the LeRobot
+    dataset at ``root``, from its episodes' lengths."""
     from kinder_gym.demos.lerobot_format import load_records
 
-    lengths = [r.num_steps for r in load_records(spec.root)]
+    lengths = [r.num_steps for r in load_records(root)]
     episode = np.repeat(np.arange(len(lengths)), lengths)
-    starts = sample_starts(episode, COMMON_FIELDS["drop_n_last_frames"])
-    return PAPER_EPOCHS * (len(starts) // batch_size)
+    return len(sample_starts(episode, COMMON_FIELDS["drop_n_last_frames"]))
+
+
+def paper_budget_steps(spec: DatasetSpec, batch_size: int) -> int:
+    """Optimiser steps of the paper's budget on a dataset: :data:`PAPER_EPOCHS` epochs, each
+    the dataset's sample starts (:func:`dataset_sample_starts`) in full batches, as
+    :class:`StepBatches` draws them."""
+    return PAPER_EPOCHS * (dataset_sample_starts(spec.root) // batch_size)
 
 
 def training_budget(

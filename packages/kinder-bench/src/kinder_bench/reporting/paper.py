@@ -380,6 +380,12 @@ PRE_CONFORMANCE_FILE = "pre_conformance_runs.csv"
 _PRE_CONFORMANCE_COLUMNS = ("run_id", "env_id", "changed_at", "summary")
 
 
+def csv_rows(text: str) -> list[list[str]]:
+    """The CSV rows of a data file's text, blank lines and ``#`` comment lines left out."""
+    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
+    return list(csv.reader(lines))
+
+
 def parse_pre_conformance(
     text: str, source: str = PRE_CONFORMANCE_FILE
 ) -> frozenset[tuple[str, str, str]]:
@@ -389,8 +395,7 @@ def parse_pre_conformance(
     Raises ValueError naming the line when a row lacks a field or the header is not
     ``run_id,env_id,changed_at,summary``.
     """
-    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
-    rows = list(csv.reader(lines))
+    rows = csv_rows(text)
     header = ",".join(_PRE_CONFORMANCE_COLUMNS)
     if not rows or tuple(rows[0]) != _PRE_CONFORMANCE_COLUMNS:
         raise ValueError(f"{source}: expected the header {header}")

@@ -37,6 +37,7 @@ from kinder_bench.reporting.paper import (
     Result,
     at_paper_protocol,
     compare,
+    csv_rows,
     fmt_stat,
     load_paper,
     metric_digits,
@@ -191,6 +192,14 @@ def _committed_reason(agent: str, env_id: str, gpu_cost: Mapping[str, Any] | Non
     )
 
 
+def _data_csv(name: str, text: str | None) -> list[list[str]]:
+    """The rows of the packaged data file ``kinder_bench/data/<name>`` (or of ``text`` when
+    given), blank lines and ``#`` comment lines left out."""
+    if text is None:
+        text = resources.files("kinder_bench.data").joinpath(name).read_text("utf-8")
+    return csv_rows(text)
+
+
 DEVIATIONS_FILE = "baseline_deviations.csv"
 _DEVIATION_COLUMNS = ("baseline", "what differs", "why", "expected effect")
 
@@ -198,14 +207,7 @@ _DEVIATION_COLUMNS = ("baseline", "what differs", "why", "expected effect")
 def load_deviations(text: str | None = None) -> list[dict[str, str]]:
     """The rows of the baselines' deviations file (``#`` lines are comments); raises ValueError
     when its header or a row is malformed."""
-    if text is None:
-        text = (
-            resources.files("kinder_bench.data")
-            .joinpath(DEVIATIONS_FILE)
-            .read_text(encoding="utf-8")
-        )
-    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
-    rows = list(csv.reader(lines))
+    rows = _data_csv(DEVIATIONS_FILE, text)
     if not rows or tuple(rows[0]) != _DEVIATION_COLUMNS:
         raise ValueError(f"{DEVIATIONS_FILE}: expected the header {','.join(_DEVIATION_COLUMNS)}")
     out = []
@@ -378,10 +380,7 @@ def load_paper_noise(text: str | None = None) -> dict[tuple[str, str, float], st
     """The paper's noise table, ``(env id, "obs" | "action", std) → SR`` as printed
     (``kinder_bench/data/paper_noise.csv``; ``#`` lines are comments). Raises ValueError naming
     the row when the header or a row is malformed."""
-    if text is None:
-        text = resources.files("kinder_bench.data").joinpath(NOISE_FILE).read_text("utf-8")
-    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
-    rows = list(csv.reader(lines))
+    rows = _data_csv(NOISE_FILE, text)
     if not rows or tuple(rows[0]) != _NOISE_COLUMNS:
         raise ValueError(f"{NOISE_FILE}: expected the header {','.join(_NOISE_COLUMNS)}")
     out: dict[tuple[str, str, float], str] = {}
@@ -488,10 +487,7 @@ def load_paper_subtasks(text: str | None = None) -> dict[tuple[str, str], dict[s
     """The paper's subtask table, ``(env id, agent) → {milestone: rate as printed}``
     (``kinder_bench/data/paper_subtasks.csv``; ``#`` lines are comments). Raises ValueError
     naming the row when the header or a row is malformed."""
-    if text is None:
-        text = resources.files("kinder_bench.data").joinpath(SUBTASKS_FILE).read_text("utf-8")
-    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
-    rows = list(csv.reader(lines))
+    rows = _data_csv(SUBTASKS_FILE, text)
     if not rows or tuple(rows[0][:2]) != ("env_id", "baseline") or len(rows[0]) < 3:
         raise ValueError(f"{SUBTASKS_FILE}: expected the header env_id,baseline,<milestones...>")
     names = [n.strip() for n in rows[0][2:]]
@@ -561,10 +557,7 @@ def load_paper_ood(text: str | None = None) -> dict[tuple[str, str], str]:
     """The paper's out-of-distribution table, ``(env id, baseline) → SR`` as printed, in the
     file's order, the training env first (``kinder_bench/data/paper_ood.csv``; ``#`` lines are
     comments). Raises ValueError naming the row when the header or a row is malformed."""
-    if text is None:
-        text = resources.files("kinder_bench.data").joinpath(OOD_FILE).read_text("utf-8")
-    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
-    rows = list(csv.reader(lines))
+    rows = _data_csv(OOD_FILE, text)
     if not rows or [c.strip() for c in rows[0]] != ["env_id", "baseline", "sr"]:
         raise ValueError(f"{OOD_FILE}: expected the header env_id,baseline,sr")
     out: dict[tuple[str, str], str] = {}

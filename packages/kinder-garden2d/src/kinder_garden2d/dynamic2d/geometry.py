@@ -111,10 +111,11 @@ def place(shape: LocalShape, x: float, y: float, theta: float) -> WorldShape:
 
 
 # -- overlap tests (separating axis theorem) -----------------------------------------------------
-def _axes(p: Poly) -> NDArray[np.float64]:
-    e = np.roll(p, -1, axis=0) - p
-    n = np.stack([-e[:, 1], e[:, 0]], axis=1)
-    out: NDArray[np.float64] = n / np.linalg.norm(n, axis=1, keepdims=True)
+def _axes(p: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Unit edge normals of a polygon ``(K, 2)``, or of each polygon of a stack ``(N, K, 2)``."""
+    e = np.roll(p, -1, axis=-2) - p
+    n = np.stack([-e[..., 1], e[..., 0]], axis=-1)
+    out: NDArray[np.float64] = n / np.linalg.norm(n, axis=-1, keepdims=True)
     return out
 
 
@@ -131,14 +132,7 @@ def convex_penetrations(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArr
     """``(N,)``: :func:`convex_penetration` of each row's polygons ``p[n]`` and ``q[n]``
     (``(N, K, 2)`` and ``(N, M, 2)``), with the same operations per row (one product of each
     polygon with its row's axes), so each equals the single call bit for bit."""
-
-    def axes(poly: NDArray[np.float64]) -> NDArray[np.float64]:
-        e = np.roll(poly, -1, axis=1) - poly
-        n = np.stack([-e[..., 1], e[..., 0]], axis=-1)
-        out: NDArray[np.float64] = n / np.linalg.norm(n, axis=-1, keepdims=True)
-        return out
-
-    at = np.concatenate([axes(p), axes(q)], axis=1).transpose(0, 2, 1)
+    at = np.concatenate([_axes(p), _axes(q)], axis=1).transpose(0, 2, 1)
     pp, qq = p @ at, q @ at
     hi = np.minimum(pp.max(axis=1), qq.max(axis=1))
     overlap = hi - np.maximum(pp.min(axis=1), qq.min(axis=1))
