@@ -628,6 +628,17 @@ class Dynamic3DEnv(ObjectCentricEnv):
         """Whether the task's goal expression holds in ``state`` (features only)."""
         return self.goal(state)
 
+    def goals_reached(self, data: FloatArray, layout: StateLayout) -> NDArray[np.bool_]:
+        """:meth:`goal_reached` of every row of ``data``, in whole-array numpy with the same
+        formulas (:meth:`GoalEvaluator.many`). Rows in another layout of the env's objects are
+        reordered into the env's first."""
+        data = np.asarray(data, dtype=np.float64)
+        if layout is not self._layout:
+            columns = np.arange(layout.size)
+            order = [columns[layout.slice_of(o)] for o in self._layout.objects]
+            data = data[:, np.concatenate(order)]
+        return self.goal.many(data)
+
     # -- reset ----------------------------------------------------------------------------------
     def _sample_initial_state(self, rng: np.random.Generator) -> ObjectCentricState:
         cfg = self.config

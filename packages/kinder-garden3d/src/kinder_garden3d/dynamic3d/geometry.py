@@ -65,6 +65,22 @@ def quat_yaw(q: Array) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
+def quats_yaw(q: Array) -> Array:
+    """Vectorised :func:`quat_yaw` for an (N, 4) array; returns (N,)."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    out: Array = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return out
+
+
+def pose_matrices(pos: Array, rot: Array) -> Array:
+    """Vectorised :func:`pose_matrix`: (N, 3) positions and (N, 3, 3) rotations to (N, 4, 4)."""
+    t = np.zeros((len(pos), 4, 4))
+    t[:, :3, :3] = rot
+    t[:, :3, 3] = pos
+    t[:, 3, 3] = 1.0
+    return t
+
+
 def pose_matrix(pos: Array | tuple[float, ...], rot: Array) -> Array:
     """A 4x4 homogeneous transform."""
     t = np.eye(4)
@@ -77,6 +93,25 @@ def rot_z(angle: float) -> Array:
     """Rotation matrix about z."""
     c, s = math.cos(angle), math.sin(angle)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def rots_z(angle: Array) -> Array:
+    """Vectorised :func:`rot_z` for (N,) angles; returns (N, 3, 3)."""
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.zeros((len(angle), 3, 3))
+    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1] = c, -s, s, c
+    out[:, 2, 2] = 1.0
+    return out
+
+
+def rots_axis(axis: Array | tuple[float, float, float], angle: Array) -> Array:
+    """Vectorised :func:`rot_axis`: one unit axis, (N,) angles; returns (N, 3, 3)."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
+    out: Array = np.eye(3) + s * k + (1.0 - c) * (k @ k)
+    return out
 
 
 def rot_axis(axis: Array | tuple[float, float, float], angle: float) -> Array:

@@ -5,6 +5,10 @@
   follows the target's pose from the state, a drawer's slide and a seesaw's hinge).
 * ``balanced seesaw tol_deg``: ``|hinge_pos| <= tol``.
 * ``and`` / ``or`` combine predicates; atoms sharing a region are tested in one vectorised step.
+
+:meth:`GoalEvaluator.many` evaluates the goal on N states at once (the rows of an (N, D) array),
+with the same formulas in whole-array numpy: planners that check thousands of predicted states
+per step (MBRL's learned-model rollouts) call it through the env's ``goals_reached``.
 """
 
 from __future__ import annotations
@@ -18,11 +22,16 @@ from kinder_core import ObjectCentricState
 from kinder_core.state import StateLayout
 from kinder_garden3d.dynamic3d.geometry import (
     Array,
+    pose_matrices,
     pose_matrix,
     quat_to_matrix,
     quat_yaw,
+    quats_to_matrices,
+    quats_yaw,
     rot_axis,
     rot_z,
+    rots_axis,
+    rots_z,
 )
 from kinder_garden3d.dynamic3d.scene import RegionFrame
 from kinder_garden3d.dynamic3d.taskfile import ROBOT, Goal, RegionSpec
@@ -78,15 +87,54 @@ class Regions:
             )
         return base @ local
 
+    def transforms(self, data: Array, region: str) -> Array:
+        """(N, 4, 4): :meth:`transform` in each of the N states whose features are the rows of
+        ``data``."""
+        n = len(data)
+        rf = self.frames[region]
+        if rf.kind == "ground":
+            return np.broadcast_to(np.eye(4), (n, 4, 4))
+        pose = data[:, self._pose_idx[rf.target]]
+        if rf.align == "world":
+            rot = np.broadcast_to(np.eye(3), (n, 3, 3))
+        elif rf.align == "yaw":
+            rot = rots_z(quats_yaw(pose[:, 3:7]))
+        else:
+            rot = quats_to_matrices(pose[:, 3:7])
+        base = pose_matrices(pose[:, :3], rot)
+        if rf.hinge is not None:
+            h = rf.hinge
+            hinge = pose_matrices(
+                np.broadcast_to(np.asarray(h.pivot, dtype=float), (n, 3)),
+                rots_axis(h.axis, data[:, self._extra_idx[rf.target]]),
+            )
+            out: Array = base @ hinge @ pose_matrix(h.offset, np.eye(3))
+            return out
+        local = np.broadcast_to(rf.local, (n, 4, 4))
+        if rf.drawer is not None:
+            local = local.copy()
+            local[:, :3, 3] += (
+                np.asarray(rf.drawer_axis) * data[:, self._extra_idx[rf.drawer], None]
+            )
+        out = base @ local
+        return out
+
     def contains(self, state: ObjectCentricState, region: str, points: Array) -> NDArray[np.bool_]:
         """Which of the (k, 3) world ``points`` lie inside the region."""
         t = self.transform(state, region)
-        local = (points - t[:3, 3]) @ t[:3, :3]
+        return self._in_boxes((points - t[:3, 3]) @ t[:3, :3], region)
+
+    def contains_many(self, data: Array, region: str, points: Array) -> NDArray[np.bool_]:
+        """(N, k): :meth:`contains` of each state's (k, 3) world points, ``points`` (N, k, 3)."""
+        t = self.transforms(data, region)
+        return self._in_boxes((points - t[:, None, :3, 3]) @ t[:, :3, :3], region)
+
+    def _in_boxes(self, local: Array, region: str) -> NDArray[np.bool_]:
+        """Which points (the last axis: x, y, z in the region frame) lie in one of its boxes."""
         boxes = self.specs[region].boxes
-        inside = (local[:, None, :] >= boxes[None, :, :3]) & (
-            local[:, None, :] <= boxes[None, :, 3:]
-        )
-        result: NDArray[np.bool_] = np.any(np.all(inside, axis=2), axis=1)
+        p = local[..., None, :]
+        inside = (p >= boxes[:, :3]) & (p <= boxes[:, 3:])
+        result: NDArray[np.bool_] = np.any(np.all(inside, axis=-1), axis=-1)
         return result
 
 
@@ -158,6 +206,28 @@ class GoalEvaluator:
 
     def __call__(self, state: ObjectCentricState) -> bool:
         return self._eval(self._root, state)
+
+    def many(self, data: Array) -> NDArray[np.bool_]:
+        """(N,): the goal's truth in each state whose features (in the evaluator's layout) are
+        a row of ``data``."""
+        return self._eval_many(self._root, np.asarray(data, dtype=np.float64))
+
+    def _eval_many(self, node: tuple[object, ...], data: Array) -> NDArray[np.bool_]:
+        op = node[0]
+        if op == "balanced":
+            ok: NDArray[np.bool_] = np.abs(data[:, node[1]]) <= node[2]  # type: ignore[index]
+            return ok
+        groups, others = node[1], node[2]
+        want_all = op == "and"
+        acc = np.full(len(data), want_all)
+        for g in groups:  # type: ignore[attr-defined]
+            pts = np.where(g.idx >= 0, data[:, np.maximum(g.idx, 0)], 0.0)
+            inside = self.regions.contains_many(data, g.region, pts)
+            acc = acc & inside.all(axis=1) if want_all else acc | inside.any(axis=1)
+        for child in others:  # type: ignore[attr-defined]
+            ok = self._eval_many(child, data)
+            acc = acc & ok if want_all else acc | ok
+        return acc
 
     def atoms(self, state: ObjectCentricState) -> dict[str, bool]:
         """Truth of every atom of the goal, keyed like ``"on(cube1, goal_region)"``."""
