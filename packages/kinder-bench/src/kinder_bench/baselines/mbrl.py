@@ -31,8 +31,9 @@ with the MPC's ``batched`` argument, the default): one model call per step for a
 candidates, each of whose rows is computed exactly as a one-row call computes it (a stack of
 one-row products, not one matrix product, whose BLAS kernel may round differently), the goal
 check and reward vectorised on the Kinematic2D families (their batched worlds), the goal check of
-other envs through their ``goals_reached`` (whole-array numpy on DynObstruction2D and
-DynPushPullHook2D, a loop over ``goal_reached`` by default), and the −1 reward without a call
+other envs through their ``goals_reached`` (whole-array numpy on DynObstruction2D,
+DynPushPullHook2D and the MuJoCo Dynamic3D families, a loop over ``goal_reached`` by default), and
+the −1 reward without a call
 where an env does not override it. The costs, hence the actions, equal the one-by-one loop's.
 
 Held-out evaluation (:func:`open_loop_errors`): a deterministic 10% of the episodes (at least one)

@@ -8,7 +8,9 @@
 
 :meth:`GoalEvaluator.many` evaluates the goal on N states at once (the rows of an (N, D) array),
 with the same formulas in whole-array numpy: planners that check thousands of predicted states
-per step (MBRL's learned-model rollouts) call it through the env's ``goals_reached``.
+per step (MBRL's learned-model rollouts) call it through the env's ``goals_reached``. Its stacked
+matrix products may round differently from the single-state ones in the last bit, so a verdict
+can differ only for a point within rounding error (about 1e-16 m) of a box face.
 """
 
 from __future__ import annotations
