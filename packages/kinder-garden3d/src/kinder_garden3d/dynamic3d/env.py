@@ -629,9 +629,9 @@ class Dynamic3DEnv(ObjectCentricEnv):
         return self.goal(state)
 
     def goals_reached(self, data: FloatArray, layout: StateLayout) -> NDArray[np.bool_]:
-        """:meth:`goal_reached` of every row of ``data``, in whole-array numpy with the same
-        formulas (:meth:`GoalEvaluator.many`). Rows in another layout of the env's objects are
-        reordered into the env's first."""
+        """:meth:`goal_reached` of every row of ``data``, in whole-array numpy
+        (:meth:`GoalEvaluator.many`, which :meth:`goal_reached` runs on one row). Rows in another
+        layout of the env's objects are reordered into the env's first."""
         data = np.asarray(data, dtype=np.float64)
         if layout is not self._layout:
             columns = np.arange(layout.size)

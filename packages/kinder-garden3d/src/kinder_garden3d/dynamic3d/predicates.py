@@ -7,10 +7,9 @@
 * ``and`` / ``or`` combine predicates; atoms sharing a region are tested in one vectorised step.
 
 :meth:`GoalEvaluator.many` evaluates the goal on N states at once (the rows of an (N, D) array),
-with the same formulas in whole-array numpy: planners that check thousands of predicted states
-per step (MBRL's learned-model rollouts) call it through the env's ``goals_reached``. Its stacked
-matrix products may round differently from the single-state ones in the last bit, so a verdict
-can differ only for a point within rounding error (about 1e-16 m) of a box face.
+in whole-array numpy: planners that check thousands of predicted states per step (MBRL's
+learned-model rollouts) call it through the env's ``goals_reached``. The single-state check is
+the same code on one row, so the two give the same verdicts by construction.
 """
 
 from __future__ import annotations
@@ -123,8 +122,10 @@ class Regions:
 
     def contains(self, state: ObjectCentricState, region: str, points: Array) -> NDArray[np.bool_]:
         """Which of the (k, 3) world ``points`` lie inside the region."""
-        t = self.transform(state, region)
-        return self._in_boxes((points - t[:3, 3]) @ t[:3, :3], region)
+        inside: NDArray[np.bool_] = self.contains_many(
+            state.data[None], region, np.asarray(points)[None]
+        )[0]
+        return inside
 
     def contains_many(self, data: Array, region: str, points: Array) -> NDArray[np.bool_]:
         """(N, k): :meth:`contains` of each state's (k, 3) world points, ``points`` (N, k, 3)."""
@@ -185,29 +186,8 @@ class GoalEvaluator:
         obj = self._layout.object_named(node[1])
         return ("balanced", self._layout.index(obj, "hinge_pos"), np.radians(node[2]))
 
-    def _eval(self, node: tuple[object, ...], state: ObjectCentricState) -> bool:
-        op = node[0]
-        if op == "balanced":
-            return bool(abs(state.data[node[1]]) <= node[2])  # type: ignore[call-overload]
-        groups, others = node[1], node[2]
-        want_all = op == "and"
-        for g in groups:  # type: ignore[attr-defined]
-            pts = np.where(g.idx >= 0, state.data[np.maximum(g.idx, 0)], 0.0)
-            inside = self.regions.contains(state, g.region, pts)
-            if want_all and not inside.all():
-                return False
-            if not want_all and inside.any():
-                return True
-        for child in others:  # type: ignore[attr-defined]
-            ok = self._eval(child, state)
-            if want_all and not ok:
-                return False
-            if not want_all and ok:
-                return True
-        return want_all
-
     def __call__(self, state: ObjectCentricState) -> bool:
-        return self._eval(self._root, state)
+        return bool(self.many(state.data[None])[0])
 
     def many(self, data: Array) -> NDArray[np.bool_]:
         """(N,): the goal's truth in each state whose features (in the evaluator's layout) are
@@ -242,10 +222,14 @@ class GoalEvaluator:
             elif node[0] == "balanced":
                 idx = self._layout.index(self._layout.object_named(node[1]), "hinge_pos")
                 single = ("balanced", idx, np.radians(node[2]))
-                out[f"balanced({node[1]}, {node[2]:g})"] = self._eval(single, state)
+                out[f"balanced({node[1]}, {node[2]:g})"] = bool(
+                    self._eval_many(single, state.data[None])[0]
+                )
             else:
                 g = _Group(node[2], np.array([self._point_idx(node[1])]))
-                out[f"{node[0]}({node[1]}, {node[2]})"] = self._eval(("and", [g], []), state)
+                out[f"{node[0]}({node[1]}, {node[2]})"] = bool(
+                    self._eval_many(("and", [g], []), state.data[None])[0]
+                )
 
         walk(self._source)
         return out
